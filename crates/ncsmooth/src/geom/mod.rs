@@ -1,0 +1,18 @@
+//! Geometry: a `Copy` vector type, the curve capability traits and the curve kinds
+//! (line, arc/helix, cubic Bézier, NURBS), gathered in the [`Segment`] enum.
+
+mod arc;
+mod cubic_bez;
+mod line;
+mod nurbs;
+mod segment;
+mod traits;
+mod vec3;
+
+pub use arc::Arc;
+pub use cubic_bez::CubicBez;
+pub use line::Line;
+pub use nurbs::{Nurbs, MAX_DEGREE};
+pub use segment::Segment;
+pub use traits::*;
+pub use vec3::{Aabb, Vec3};

@@ -1,0 +1,15 @@
+//! # ncsmooth
+//!
+//! The numerical core of ncsmooth: geometry ([`geom`]), the path model ([`path`]) and the
+//! verification core ([`verify`]) by which every smoothing and planning result is judged.
+//!
+//! The pipeline is parse (crate `ncsmooth-gcode`) -> [`path`] -> smooth -> plan ->
+//! interpolate -> [`verify`] -> write.
+#![forbid(unsafe_code)]
+
+pub mod geom;
+pub mod path;
+pub mod verify;
+
+pub use geom::{Segment, Vec3};
+pub use path::{Block, Event, EventKind, Move, MoveKind, Toolpath, Units};
