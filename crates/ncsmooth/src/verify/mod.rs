@@ -1,1 +1,16 @@
-//! Verification (placeholder while being written).
+//! Verification core: how every smoothing and planning result is judged.
+//!
+//! * [`deviation`]: the two-sided distance between an output path and the programmed one
+//!   (the tolerance contract), exact within a stated accuracy, O(n log n).
+//! * [`continuity`]: position, tangent and curvature continuity at every joint.
+
+mod bvh;
+mod continuity;
+mod deviation;
+mod prim;
+
+pub use continuity::{
+    continuity, continuity_joints, joint, Continuity, Joint, JointClass, CURVATURE_ABS_TOL,
+    CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,
+};
+pub use deviation::{deviation, deviation_segments, Deviation};

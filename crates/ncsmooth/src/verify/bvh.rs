@@ -1,0 +1,131 @@
+//! A static bounding-volume hierarchy over primitives for nearest-distance queries.
+//! Built by median splits on the longest axis of the centroids (O(n log n)); queried
+//! depth-first, nearer child first, pruning boxes farther than the best distance so far.
+//! An initial upper bound (a "hint", e.g. the distance to the primitive nearest the
+//! previous query point) makes sequential queries along a path nearly O(log n).
+
+use super::prim::Prim;
+use crate::geom::{Aabb, Vec3};
+
+/// Primitives per leaf.
+const LEAF_SIZE: usize = 4;
+
+struct Node {
+    bbox: Aabb,
+    /// Leaf: `start..end` into `prims`; inner: `left = start`, `right = end`.
+    start: u32,
+    end: u32,
+    leaf: bool,
+}
+
+pub(crate) struct Bvh {
+    nodes: Vec<Node>,
+    pub prims: Vec<Prim>,
+}
+
+/// Result of a nearest query.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Hit {
+    pub dist_sq: f64,
+    /// Index into `Bvh::prims`, or `usize::MAX` when nothing beat the initial bound.
+    pub prim: usize,
+}
+
+impl Bvh {
+    pub fn new(mut prims: Vec<Prim>) -> Bvh {
+        let mut nodes = Vec::with_capacity(2 * prims.len() / LEAF_SIZE + 1);
+        let boxes: Vec<Aabb> = prims.iter().map(|p| p.bbox()).collect();
+        let mut order: Vec<(Aabb, Prim)> = boxes.into_iter().zip(prims.drain(..)).collect();
+        if !order.is_empty() {
+            build(&mut order, 0, &mut nodes);
+        }
+        let prims = order.into_iter().map(|(_, p)| p).collect();
+        Bvh { nodes, prims }
+    }
+
+    /// Nearest primitive to `p` among those closer than `sqrt(bound_sq)`.
+    pub fn nearest(&self, p: Vec3, bound_sq: f64) -> Hit {
+        let mut best = Hit {
+            dist_sq: bound_sq,
+            prim: usize::MAX,
+        };
+        if self.nodes.is_empty() {
+            return best;
+        }
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(ni) = stack.pop() {
+            let n = &self.nodes[ni as usize];
+            if n.bbox.dist_sq(p) >= best.dist_sq {
+                continue;
+            }
+            if n.leaf {
+                for i in n.start as usize..n.end as usize {
+                    let d = self.prims[i].dist_sq(p);
+                    if d < best.dist_sq {
+                        best = Hit {
+                            dist_sq: d,
+                            prim: i,
+                        };
+                    }
+                }
+            } else {
+                let (l, r) = (n.start, n.end);
+                let dl = self.nodes[l as usize].bbox.dist_sq(p);
+                let dr = self.nodes[r as usize].bbox.dist_sq(p);
+                // Push the farther first so the nearer is explored first.
+                if dl < dr {
+                    stack.push(r);
+                    stack.push(l);
+                } else {
+                    stack.push(l);
+                    stack.push(r);
+                }
+            }
+        }
+        best
+    }
+}
+
+fn build(items: &mut [(Aabb, Prim)], offset: usize, nodes: &mut Vec<Node>) -> u32 {
+    let mut bbox = Aabb::EMPTY;
+    let mut cbox = Aabb::EMPTY;
+    for (b, _) in items.iter() {
+        bbox = bbox.union(*b);
+        cbox.include(b.center());
+    }
+    let idx = nodes.len() as u32;
+    if items.len() <= LEAF_SIZE {
+        nodes.push(Node {
+            bbox,
+            start: offset as u32,
+            end: (offset + items.len()) as u32,
+            leaf: true,
+        });
+        return idx;
+    }
+    nodes.push(Node {
+        bbox,
+        start: 0,
+        end: 0,
+        leaf: false,
+    });
+    let ext = cbox.max - cbox.min;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| {
+        a.0.center()[axis].total_cmp(&b.0.center()[axis])
+    });
+    let (lo, hi) = items.split_at_mut(mid);
+    let l = build(lo, offset, nodes);
+    let r = build(hi, offset + mid, nodes);
+    nodes[idx as usize].start = l;
+    nodes[idx as usize].end = r;
+    idx
+}
