@@ -9,6 +9,7 @@
 
 pub mod geom;
 pub mod path;
+pub mod smooth;
 pub mod verify;
 
 pub use geom::{Segment, Vec3};

@@ -1,0 +1,427 @@
+//! Smoothing: turns the programmed path into a smoother one within a two-sided tolerance.
+//!
+//! ## Contract
+//! `tol_mm` is two-sided: every point of the output lies within `tol_mm` of the programmed
+//! path and every programmed vertex within `tol_mm` of the output
+//! ([`crate::verify::deviation`] measures both). Loop corners (Tao's outside ring) are the
+//! one exception and carry their own bound.
+//!
+//! ## What is smoothed
+//! The program is cut into *chains*: maximal runs of consecutive feed moves. A rapid, an
+//! event (spindle, coolant, dwell, tool change, ...) or a G53 move ends a chain, and chain
+//! ends are kept exactly (the event happens at that point). Rapids are never smoothed.
+//! Each method works on one chain at a time ([`Chain`]) and returns its moves; this module
+//! re-assembles the program with the rapids and events in place.
+//!
+//! Inside a chain, a junction whose tangent turns by less than
+//! [`SmoothOptions::straight_angle_deg`] passes through unchanged. Extra axes (A B C U V W E)
+//! ride along: [`assemble`] gives each output move the extra-axis values of the programmed
+//! path at its end point, interpolated linearly in arc length within the programmed move,
+//! so they are never smoothed. Feeds: an output piece gets the lowest programmed feed of
+//! the moves it spans.
+//!
+//! ## Methods
+//! * [`Method::None`]: the program unchanged (planning the raw path).
+//! * [`Method::Bspline`]: Guo et al., cubic B-spline corner transitions in a tolerance band.
+//! * [`Method::Arc`]: Wu et al., circular-arc corner transitions.
+//! * [`Method::Nurbs`]: Wu et al., NURBS fitting of micro-line runs plus arc corners.
+//! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
+
+use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
+use crate::path::{Block, ExtraAxes, Move, MoveKind, Toolpath};
+use crate::verify::TANGENT_TOL_DEG;
+use serde::Serialize;
+
+/// Accuracy (mm) of arc-length evaluations used to place extra-axis values.
+const EXTRA_AXIS_ARCLEN_ACCURACY: f64 = 1e-9;
+
+/// Smoothing method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+pub enum Method {
+    /// No smoothing.
+    #[default]
+    None,
+    /// Cubic B-spline corners (Guo et al.).
+    Bspline,
+    /// Circular-arc corners (Wu et al.).
+    Arc,
+    /// NURBS-circular hybrid (Wu et al.).
+    Nurbs,
+    /// Cubic trigonometric spline (Tao et al.).
+    Trig,
+}
+
+impl Method {
+    /// Parses a method name as used on the command line.
+    pub fn from_name(s: &str) -> Option<Method> {
+        Some(match s {
+            "none" => Method::None,
+            "bspline" => Method::Bspline,
+            "arc" => Method::Arc,
+            "nurbs" => Method::Nurbs,
+            "trig" => Method::Trig,
+            _ => return None,
+        })
+    }
+    /// Command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::None => "none",
+            Method::Bspline => "bspline",
+            Method::Arc => "arc",
+            Method::Nurbs => "nurbs",
+            Method::Trig => "trig",
+        }
+    }
+}
+
+/// Options common to every method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SmoothOptions {
+    /// Method. Default: [`Method::None`].
+    pub method: Method,
+    /// Two-sided tolerance (mm). Default 0.01 mm.
+    pub tol_mm: f64,
+    /// Junctions turning by less than this (degrees) pass through unchanged. Default:
+    /// [`TANGENT_TOL_DEG`], the angle the continuity audit already calls tangent.
+    pub straight_angle_deg: f64,
+}
+
+impl Default for SmoothOptions {
+    fn default() -> Self {
+        SmoothOptions {
+            method: Method::None,
+            tol_mm: 0.01,
+            straight_angle_deg: TANGENT_TOL_DEG,
+        }
+    }
+}
+
+/// Invalid smoothing options.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OptionsError {
+    /// A value out of its range: name, value, what is allowed.
+    OutOfRange(&'static str, f64, &'static str),
+}
+
+impl std::fmt::Display for OptionsError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            OptionsError::OutOfRange(name, v, allowed) => {
+                write!(f, "{name} = {v} is invalid: {allowed}")
+            }
+        }
+    }
+}
+impl std::error::Error for OptionsError {}
+
+impl SmoothOptions {
+    /// Checks the ranges.
+    pub fn validate(&self) -> Result<(), OptionsError> {
+        if !(self.tol_mm > 0.0 && self.tol_mm.is_finite()) {
+            return Err(OptionsError::OutOfRange(
+                "tol",
+                self.tol_mm,
+                "a positive length in mm",
+            ));
+        }
+        if !(0.0..90.0).contains(&self.straight_angle_deg) {
+            return Err(OptionsError::OutOfRange(
+                "straight angle",
+                self.straight_angle_deg,
+                "degrees in [0, 90)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What smoothing did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SmoothReport {
+    /// Method used.
+    pub method: Method,
+    /// Tolerance (mm).
+    pub tol_mm: f64,
+    /// Chains processed.
+    pub chains: usize,
+    /// Corners that received a transition.
+    pub corners_smoothed: usize,
+    /// Junctions passed through as straight.
+    pub corners_straight: usize,
+    /// Corners left as exact stops (e.g. non-tangent joints involving arcs).
+    pub corners_stopped: usize,
+    /// Non-tangent joints that involve an input arc (a subset of the above, per method).
+    pub arc_joints: usize,
+    /// Micro-line runs fitted with a curve (NURBS / trig methods).
+    pub runs_fitted: usize,
+    /// Points per fitted run.
+    pub points_per_run: Vec<usize>,
+    /// Measured fit deviation per run (mm).
+    pub fit_deviation_per_run_mm: Vec<f64>,
+    /// Output segments emitted.
+    pub segments_emitted: usize,
+}
+
+/// Result of smoothing.
+#[derive(Clone, Debug)]
+pub struct Smoothed {
+    /// The smoothed program (events and rapids in place).
+    pub toolpath: Toolpath,
+    /// What was done.
+    pub report: SmoothReport,
+}
+
+/// A chain of consecutive feed moves handed to a method.
+#[derive(Clone, Copy, Debug)]
+pub struct Chain<'a> {
+    /// The moves (feed moves; lines and arcs from G-code, any segment in general).
+    pub moves: &'a [Move],
+    /// Extra-axis values before the first move, if the program uses extra axes.
+    pub start_extra: Option<ExtraAxes>,
+}
+
+impl Chain<'_> {
+    /// True when the chain ends where it starts (a closed contour) with at least 3 moves.
+    pub fn is_closed(&self, eps_mm: f64) -> bool {
+        self.moves.len() >= 3
+            && self.moves[0]
+                .segment
+                .start()
+                .dist(self.moves[self.moves.len() - 1].segment.end())
+                <= eps_mm
+    }
+}
+
+/// A position on a chain: move index and fraction of that move's arc length.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChainPos {
+    /// Index of the move in the chain.
+    pub index: usize,
+    /// Fraction of its arc length, in [0, 1].
+    pub frac: f64,
+}
+
+impl ChainPos {
+    /// Start of move `i`.
+    pub fn start_of(i: usize) -> ChainPos {
+        ChainPos {
+            index: i,
+            frac: 0.0,
+        }
+    }
+    /// End of move `i`.
+    pub fn end_of(i: usize) -> ChainPos {
+        ChainPos {
+            index: i,
+            frac: 1.0,
+        }
+    }
+}
+
+/// One output piece of a method, with where its ends lie on the programmed chain.
+#[derive(Clone, Debug)]
+pub struct OutPiece {
+    /// Geometry.
+    pub segment: Segment,
+    /// Programmed position of its start.
+    pub from: ChainPos,
+    /// Programmed position of its end.
+    pub to: ChainPos,
+}
+
+/// Turns a method's pieces into moves: line number of the move the piece starts in, the
+/// lowest feed of the moves it spans, extra axes interpolated at its end (see module doc).
+pub fn assemble(chain: &Chain<'_>, pieces: Vec<OutPiece>) -> Vec<Move> {
+    let n = chain.moves.len();
+    let mut out = Vec::with_capacity(pieces.len());
+    for pc in pieces {
+        let (a, b) = if pc.from.index <= pc.to.index {
+            (pc.from.index, pc.to.index)
+        } else {
+            (pc.to.index, pc.from.index)
+        };
+        let (a, b) = (a.min(n - 1), b.min(n - 1));
+        let src = &chain.moves[a];
+        let feed = chain.moves[a..=b]
+            .iter()
+            .filter_map(|m| m.feed_mm_s)
+            .fold(None, |acc: Option<f64>, f| {
+                Some(acc.map_or(f, |x| x.min(f)))
+            });
+        let extra = extra_at(chain, pc.to);
+        out.push(Move {
+            segment: pc.segment,
+            kind: MoveKind::Feed,
+            feed_mm_s: feed,
+            line: src.line,
+            extra,
+            machine_coords: false,
+        });
+    }
+    out
+}
+
+/// Extra-axis values at a chain position (linear in arc length within the move).
+pub fn extra_at(chain: &Chain<'_>, pos: ChainPos) -> Option<ExtraAxes> {
+    let m = &chain.moves[pos.index.min(chain.moves.len() - 1)];
+    let end = m.extra?;
+    if pos.frac >= 1.0 {
+        return Some(end);
+    }
+    let start = if pos.index == 0 {
+        chain.start_extra.unwrap_or(end)
+    } else {
+        chain.moves[pos.index - 1].extra.unwrap_or(end)
+    };
+    let mut v = start;
+    for i in 0..v.len() {
+        v[i] = start[i] + (end[i] - start[i]) * pos.frac;
+    }
+    Some(v)
+}
+
+/// Point of the programmed chain at a position.
+pub fn point_at(chain: &Chain<'_>, pos: ChainPos) -> Vec3 {
+    let s = &chain.moves[pos.index].segment;
+    if pos.frac <= 0.0 {
+        return s.start();
+    }
+    if pos.frac >= 1.0 {
+        return s.end();
+    }
+    let len = s.arclen(EXTRA_AXIS_ARCLEN_ACCURACY);
+    s.eval(s.inv_arclen(pos.frac * len, EXTRA_AXIS_ARCLEN_ACCURACY))
+}
+
+/// The chain unchanged, as pieces (used by [`Method::None`] and as a fallback).
+pub fn passthrough(chain: &Chain<'_>) -> Vec<Move> {
+    chain.moves.to_vec()
+}
+
+/// Smooths a whole program. Fails only on invalid options.
+pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsError> {
+    opts.validate()?;
+    let mut report = SmoothReport {
+        method: opts.method,
+        tol_mm: opts.tol_mm,
+        ..Default::default()
+    };
+    let mut out = Toolpath {
+        blocks: Vec::with_capacity(tp.blocks.len()),
+        ..tp.clone()
+    };
+    let mut run: Vec<Move> = Vec::new();
+    let mut last_extra: Option<ExtraAxes> = None;
+    let mut run_start_extra: Option<ExtraAxes> = None;
+    let flush = |run: &mut Vec<Move>,
+                 start_extra: Option<ExtraAxes>,
+                 out: &mut Toolpath,
+                 report: &mut SmoothReport| {
+        if run.is_empty() {
+            return;
+        }
+        let chain = Chain {
+            moves: run,
+            start_extra,
+        };
+        report.chains += 1;
+        let moves = smooth_chain(&chain, opts, report);
+        report.segments_emitted += moves.len();
+        out.blocks.extend(moves.into_iter().map(Block::Move));
+        run.clear();
+    };
+    for b in &tp.blocks {
+        match b {
+            Block::Move(m) if m.kind == MoveKind::Feed && !m.machine_coords => {
+                if run.is_empty() {
+                    run_start_extra = last_extra;
+                }
+                last_extra = m.extra.or(last_extra);
+                run.push(m.clone());
+            }
+            other => {
+                flush(&mut run, run_start_extra, &mut out, &mut report);
+                if let Block::Move(m) = other {
+                    last_extra = m.extra.or(last_extra);
+                }
+                out.blocks.push(other.clone());
+            }
+        }
+    }
+    flush(&mut run, run_start_extra, &mut out, &mut report);
+    Ok(Smoothed {
+        toolpath: out,
+        report,
+    })
+}
+
+fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, _report: &mut SmoothReport) -> Vec<Move> {
+    match opts.method {
+        Method::None => passthrough(chain),
+        // Methods are added in their own modules.
+        _ => passthrough(chain),
+    }
+}
+
+/// Turning angle (degrees) between the end of `a` and the start of `b`, if both have
+/// tangents there.
+pub fn turn_angle_deg(a: &Segment, b: &Segment) -> Option<f64> {
+    Some(a.end_tangent()?.angle_to(b.start_tangent()?).to_degrees())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Line;
+    use crate::path::{Event, EventKind};
+
+    #[test]
+    fn none_keeps_everything_and_extra_axes_interpolate() {
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        tp.push_move(Move::rapid(Line::new(Vec3::ZERO, Vec3::X), 1));
+        let mut m = Move::feed(Line::new(Vec3::X, Vec3::new(3.0, 0.0, 0.0)), Some(10.0), 2);
+        m.extra = Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 4.0]);
+        tp.push_move(m);
+        tp.push_event(Event {
+            line: 3,
+            kind: EventKind::Coolant,
+            text: "M8".into(),
+        });
+        let s = smooth(&tp, &SmoothOptions::default()).unwrap();
+        assert_eq!(s.toolpath, tp);
+        assert_eq!(s.report.chains, 1);
+        let moves: Vec<Move> = tp.moves().cloned().collect();
+        let chain = Chain {
+            moves: &moves[1..],
+            start_extra: Some([0.0; 7]),
+        };
+        let e = extra_at(
+            &chain,
+            ChainPos {
+                index: 0,
+                frac: 0.25,
+            },
+        )
+        .unwrap();
+        assert_eq!(e[6], 1.0);
+        assert_eq!(
+            point_at(
+                &chain,
+                ChainPos {
+                    index: 0,
+                    frac: 0.5
+                }
+            ),
+            Vec3::new(2.0, 0.0, 0.0)
+        );
+        assert!(smooth(
+            &tp,
+            &SmoothOptions {
+                tol_mm: -1.0,
+                ..Default::default()
+            }
+        )
+        .is_err());
+    }
+}
