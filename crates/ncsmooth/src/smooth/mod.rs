@@ -27,6 +27,8 @@
 //! * [`Method::Nurbs`]: Wu et al., NURBS fitting of micro-line runs plus arc corners.
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
+pub mod screen;
+
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
 use crate::path::{Block, ExtraAxes, Move, MoveKind, Toolpath};
 use crate::verify::TANGENT_TOL_DEG;
