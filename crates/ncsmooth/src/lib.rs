@@ -9,6 +9,7 @@
 
 pub mod geom;
 pub mod path;
+pub mod profiles;
 pub mod smooth;
 pub mod verify;
 
