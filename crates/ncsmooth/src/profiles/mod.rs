@@ -134,7 +134,15 @@ mod tests {
         }
         // The first vertices of the published 80-segment polyline (butterfly_80.ngc). Its
         // sampling procedure is not documented; ours agrees within 0.02 mm.
-        assert!(p[1].dist(Vec3::new(56.3415, 48.0449, 0.0)) < 0.02, "{:?}", p[1]);
-        assert!(p[2].dist(Vec3::new(60.0732, 46.7905, 0.0)) < 0.02, "{:?}", p[2]);
+        assert!(
+            p[1].dist(Vec3::new(56.3415, 48.0449, 0.0)) < 0.02,
+            "{:?}",
+            p[1]
+        );
+        assert!(
+            p[2].dist(Vec3::new(60.0732, 46.7905, 0.0)) < 0.02,
+            "{:?}",
+            p[2]
+        );
     }
 }
