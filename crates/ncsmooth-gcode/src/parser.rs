@@ -754,8 +754,11 @@ impl<'a> Interp<'a> {
             self.event(EventKind::Other, text);
         } else if any_axis {
             self.motion_block(g53, scale)?;
-        } else if g53 && motion_code.is_none() {
-            // A bare G53 has no effect.
+        } else if matches!(self.motion, Motion::G2 | Motion::G3)
+            && (self.has(b'I') || self.has(b'J') || self.has(b'K') || self.has(b'R'))
+        {
+            // `G2 I5` with no end point: LinuxCNC refuses it too.
+            return Err(self.err_line(ParseErrorKind::ArcNoAxes));
         }
 
         // --- Program stops, after the motion.
