@@ -12,8 +12,9 @@
 //! * Arcs whose normal is ±Z, ±Y or ±X (within 1e-9) as `G2`/`G3` in G17/G18/G19 (the
 //!   plane word is written when it changes), with both in-plane end coordinates, the axial
 //!   coordinate for helices, both centre offsets, and `P` for multi-turn arcs. Centre
-//!   offsets are taken from the *written* (rounded) start point, so the centre the reader
-//!   computes is within half a unit of the last decimal. Arcs in other planes, arcs whose
+//!   offsets are taken from the *written* (rounded) start point and written with
+//!   [`CENTRE_EXTRA_DECIMALS`] more digits than the coordinates, so the centre the reader
+//!   computes is essentially exact. Arcs in other planes, arcs whose
 //!   radius is under two units of the last decimal, and arcs that rounding would turn into
 //!   a full circle are flattened to `G1` lines within `chord_mm` with
 //!   [`Flatten`](ncsmooth::geom::Flatten). So are all non-native segments (Béziers,
@@ -167,6 +168,13 @@ struct Writer<'a, W: fmt::Write> {
 }
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
+
+/// Extra digits for the I/J/K centre offsets: the reader's centre is then essentially
+/// exact relative to the rounded end points, so the arc between them deviates from the
+/// original by about the end-point rounding only (with the same digits as the
+/// coordinates, the centre rounding adds up to the same amount again, and arc midpoints
+/// of a 6-decimal round trip could move by up to 1.4e-6 mm).
+pub const CENTRE_EXTRA_DECIMALS: usize = 2;
 
 fn coord(v: Vec3, i: usize) -> f64 {
     match i {
@@ -382,7 +390,12 @@ impl<W: fmt::Write> Writer<'_, W> {
             if i == normal_axis {
                 continue;
             }
-            self.fmt(coord(a.center, i) - coord(start_written, i));
+            self.scratch.clear();
+            push_fixed(
+                &mut self.scratch,
+                coord(a.center, i) - coord(start_written, i),
+                self.opts.decimals + CENTRE_EXTRA_DECIMALS,
+            );
             self.line.push(' ');
             self.line.push(CENTRE[i]);
             self.line.push_str(&self.scratch);
