@@ -5,14 +5,14 @@
 //! line the same way). The lexer therefore works in two passes over each physical line,
 //! both without allocation in steady state:
 //!
-//! 1. [`compact_line`] copies the line into a reused buffer, dropping white space
+//! 1. `compact_line` copies the line into a reused buffer, dropping white space
 //!    (space, tab, CR, VT, FF), `( )` comments and everything after `;`, upper-casing ASCII
 //!    letters, and records for every kept byte its offset in the source (for error spans).
 //!    A `(` without `)` on the same line is an [`UnclosedComment`](ParseErrorKind::UnclosedComment)
 //!    error. A leading `/` (block delete) is dropped: ncsmooth keeps block-delete blocks,
 //!    as a controller does with its block-delete switch off. A line whose first
 //!    character is `%` is a program delimiter and is empty.
-//! 2. [`read_block`] splits the compacted bytes into words (a letter and a real value) and
+//! 2. `read_block` splits the compacted bytes into words (a letter and a real value) and
 //!    `#n=value` parameter assignments. Values are numbers, `#n` references, `[ ]`
 //!    expressions or unary functions ([`crate::expr`]). Numbers are `digits[.digits]` or
 //!    `.digits` (no exponent, as NGC) and are converted with `str::parse::<f64>` on the

@@ -220,6 +220,10 @@ impl<'a> Interp<'a> {
         let src = self.src;
         let bytes = src.as_bytes();
         self.stats.bytes = bytes.len();
+        // One block per line at most, give or take: reserve up front instead of growing
+        // (and copying) a vector of 200-byte blocks many times.
+        let newlines = bytes.iter().filter(|&&b| b == b'\n').count();
+        self.tp.blocks.reserve(newlines + 1);
         let mut start = 0;
         while start < bytes.len() {
             let end = memchr_newline(&bytes[start..]).map_or(bytes.len(), |p| start + p);
@@ -429,7 +433,7 @@ impl<'a> Interp<'a> {
                 }
                 330 | 331 => return Err(self.unsupported(c, "spindle-synchronised motion is not supported")),
                 382..=385 => return Err(self.unsupported(c, "probing is not supported")),
-                50 | 51 | 52 | 53 => return Err(self.unsupported(c, "spline motion is not supported")),
+                50..=53 => return Err(self.unsupported(c, "spline motion is not supported")),
                 70 | 80 => return Err(self.unsupported(c, "lathe diameter/radius mode is not supported")),
                 160 => return Err(self.unsupported(c, "polar coordinates are not supported")),
                 100 => {

@@ -17,7 +17,7 @@
 //!   computes is essentially exact. Arcs in other planes, arcs whose
 //!   radius is under two units of the last decimal, and arcs that rounding would turn into
 //!   a full circle are flattened to `G1` lines within `chord_mm` with
-//!   [`Flatten`](ncsmooth::geom::Flatten). So are all non-native segments (Béziers,
+//!   [`Flatten`]. So are all non-native segments (Béziers,
 //!   NURBS and any future kind); extra axes are interpolated along the pieces by length.
 //! * Events are written as their text, in order. An `M83` event is written as `M82`
 //!   (with a comment) because the writer always writes absolute E. After an event, extra
@@ -155,7 +155,7 @@ struct Writer<'a, W: fmt::Write> {
     scratch: String,
     last_axis: [String; 3],
     axis_known: [bool; 3],
-    /// The position the reader will compute (parsed back from the written text).
+    /// The last position written (unrounded; see `written_pos`).
     written: Vec3,
     last_extra: [String; 7],
     extra_known: [bool; 7],
@@ -221,11 +221,24 @@ impl<W: fmt::Write> Writer<'_, W> {
             self.line.push_str(&self.scratch);
             std::mem::swap(&mut self.last_axis[i], &mut self.scratch);
             self.axis_known[i] = true;
-            set_coord(&mut self.written, i, self.last_axis[i].parse().unwrap_or(v));
+            set_coord(&mut self.written, i, v);
             true
         } else {
             false
         }
+    }
+
+    /// The position the reader computes: the written (rounded) coordinates.
+    fn written_pos(&self) -> Vec3 {
+        let mut p = self.written;
+        for i in 0..3 {
+            if self.axis_known[i] {
+                if let Ok(v) = self.last_axis[i].parse() {
+                    set_coord(&mut p, i, v);
+                }
+            }
+        }
+        p
     }
 
     fn extras(&mut self, e: Option<&[f64; 7]>) {
@@ -350,7 +363,7 @@ impl<W: fmt::Write> Writer<'_, W> {
             return Ok(false);
         };
         let unit = 0.1f64.powi(self.opts.decimals.min(300) as i32);
-        if !(a.radius >= 2.0 * unit) || !a.sweep.is_finite() || a.sweep <= 0.0 {
+        if a.radius.is_nan() || a.radius < 2.0 * unit || !a.sweep.is_finite() || a.sweep <= 0.0 {
             return Ok(false);
         }
         let normal_axis = 3 - i0 - i1;
@@ -360,7 +373,7 @@ impl<W: fmt::Write> Writer<'_, W> {
         }
         let full = (a.sweep - turns * TAU).abs() <= 1e-9 * turns;
         let mut end = a.eval(1.0);
-        let start_written = self.written;
+        let start_written = self.written_pos();
         if full {
             // End exactly where the reader's start is, in the plane.
             set_coord(&mut end, i0, coord(start_written, i0));
