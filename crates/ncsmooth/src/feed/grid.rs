@@ -8,7 +8,9 @@
 //! per knot span for NURBS), then intervals are bisected until the tangent turns by at
 //! most [`MAX_TURN_DEG`] and the curvature vector changes by at most
 //! [`MAX_CURVATURE_CHANGE`] of its size between their ends; their arc lengths come from
-//! adaptive quadrature at [`ARCLEN_ACCURACY_MM`].
+//! Gauss-Legendre quadrature checked to [`crate::interp::STEP_ARCLEN_ACCURACY_MM`]
+//! ([`crate::interp::step_arclen`]), the move's total from adaptive quadrature at
+//! [`ARCLEN_ACCURACY_MM`] (the last interval takes the remainder).
 //! Zero-length moves (below [`crate::verify::DEGENERATE_MM`]) are dropped: their extra-axis
 //! change, if any, happens at once at their position (a known limitation: extra axes
 //! ride along and are not planned).
@@ -401,7 +403,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     let ds = if i + 1 == last {
                         (m.len - s_acc).max(0.0)
                     } else {
-                        arclen_adaptive(seg, a, b, ARCLEN_ACCURACY_MM)
+                        crate::interp::step_arclen(seg, a, b)
                     };
                     s_acc += ds;
                     let cap = point_cap_x(t1, k1, m.vcap_mm_s, caps);

@@ -79,11 +79,11 @@ const CHORD_ROUNDING_ULPS: f64 = 8.0;
 /// length.
 const MAX_HALF_ANGLE: f64 = 1.5;
 /// Accuracy (mm) of the arc length of one step.
-pub const STEP_ARCLEN_ACCURACY_MM: f64 = 1e-12;
+pub const STEP_ARCLEN_ACCURACY_MM: f64 = 1e-11;
 /// Largest difference (mm) between the arc length a step travels and the planned one
-/// before the step is corrected on arc length (1e-10 mm is 4e-4 mm/s^2 of
-/// finite-difference acceleration at T = 1 ms).
-pub const ARC_CORRECTION_TOL_MM: f64 = 1e-10;
+/// before the step is corrected on arc length: the printing resolution of the setpoints
+/// (1e-9 mm is 4e-3 mm/s^2 of finite-difference acceleration at T = 1 ms).
+pub const ARC_CORRECTION_TOL_MM: f64 = 1e-9;
 /// Iteration cap of the arc-length fallback solve.
 const FALLBACK_ITERS: usize = 60;
 /// Accuracy (mm) of the arc-length fallback solve.
@@ -205,7 +205,7 @@ fn gl5_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
 /// Arc length over one step: 5-point Gauss-Legendre, checked against the sum over the two
 /// halves; where they disagree by more than [`STEP_ARCLEN_ACCURACY_MM`] (a step across a
 /// tight bend or a zero-speed end) adaptive quadrature takes over.
-fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
+pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
     let whole = gl5_arclen(seg, a, b);
     let m = 0.5 * (a + b);
     let halves = gl5_arclen(seg, a, m) + gl5_arclen(seg, m, b);

@@ -143,36 +143,40 @@ pub fn execute<W: Write>(
     let mut err: Option<io::Error> = None;
     let (mut t, mut n) = (0.0f64, 0u64);
     let (mut interp_s, mut write_s) = (0.0, 0.0);
-    let mut emit = |time: f64,
-                    s: f64,
-                    v: f64,
-                    interp: &mut Interpolator<'_, '_>,
-                    writer: &mut SetpointWriter<W>| {
-        let c0 = Instant::now();
-        let (p, extra) = interp.advance(s);
-        let c1 = Instant::now();
-        if err.is_none() {
-            if let Err(e) = writer.push(&Setpoint {
-                t: time,
-                p,
-                feed: v,
-                extra,
-            }) {
-                err = Some(e);
-            }
-        }
-        interp_s += (c1 - c0).as_secs_f64();
-        write_s += c1.elapsed().as_secs_f64();
-    };
+    let mut batch: Vec<(f64, f64, f64)> = Vec::new();
+    let mut points: Vec<(crate::geom::Vec3, Option<crate::path::ExtraAxes>)> = Vec::new();
     let planning = plan_stream(&index, popts, |ev| match ev {
         PlanEvent::Piece(pc) => {
+            // Samples of this piece, interpolated and written in two timed batches.
+            batch.clear();
             while (n as f64) * period < t + pc.dt {
                 let time = n as f64 * period;
                 let (s, v) = pc.at(time - t);
-                emit(time, s, v, &mut interp, &mut writer);
+                batch.push((time, s, v));
                 n += 1;
             }
             t += pc.dt;
+            if batch.is_empty() {
+                return;
+            }
+            let c0 = Instant::now();
+            points.clear();
+            points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
+            let c1 = Instant::now();
+            for (&(time, _, v), &(p, extra)) in batch.iter().zip(&points) {
+                if err.is_none() {
+                    if let Err(e) = writer.push(&Setpoint {
+                        t: time,
+                        p,
+                        feed: v,
+                        extra,
+                    }) {
+                        err = Some(e);
+                    }
+                }
+            }
+            interp_s += (c1 - c0).as_secs_f64();
+            write_s += c1.elapsed().as_secs_f64();
         }
         PlanEvent::Stop { s, reason, dwell_s } => {
             let rest_end = t + dwell_s;
@@ -182,7 +186,21 @@ pub fn execute<W: Write>(
             }
             let last = if reason == StopReason::End { k + 1 } else { k };
             while n < last {
-                emit(n as f64 * period, s, 0.0, &mut interp, &mut writer);
+                let c0 = Instant::now();
+                let (p, extra) = interp.advance(s);
+                let c1 = Instant::now();
+                if err.is_none() {
+                    if let Err(e) = writer.push(&Setpoint {
+                        t: n as f64 * period,
+                        p,
+                        feed: 0.0,
+                        extra,
+                    }) {
+                        err = Some(e);
+                    }
+                }
+                interp_s += (c1 - c0).as_secs_f64();
+                write_s += c1.elapsed().as_secs_f64();
                 n += 1;
             }
             t = k as f64 * period;

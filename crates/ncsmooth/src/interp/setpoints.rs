@@ -7,7 +7,6 @@
 use crate::geom::Vec3;
 use crate::path::{ExtraAxes, EXTRA_AXIS_NAMES};
 use serde::Serialize;
-use std::fmt::Write as _;
 use std::io::{self, Write};
 
 /// One setpoint.
@@ -43,7 +42,8 @@ pub struct FdStats {
 /// jerk between two consecutive accelerations.
 #[derive(Clone, Debug, Default)]
 pub struct FdMeter {
-    hist: Vec<(f64, [f64; 3])>,
+    hist: [(f64, [f64; 3]); 3],
+    len: usize,
     last_acc: Option<(f64, [f64; 3])>,
     /// Maxima so far.
     pub stats: FdStats,
@@ -52,11 +52,14 @@ pub struct FdMeter {
 impl FdMeter {
     /// Feeds one row.
     pub fn push(&mut self, t: f64, x: [f64; 3]) {
-        self.hist.push((t, x));
-        if self.hist.len() > 3 {
-            self.hist.remove(0);
+        if self.len == 3 {
+            self.hist.rotate_left(1);
+            self.hist[2] = (t, x);
+        } else {
+            self.hist[self.len] = (t, x);
+            self.len += 1;
         }
-        let n = self.hist.len();
+        let n = self.len;
         if n >= 2 {
             let (t0, x0) = self.hist[n - 2];
             let dt = t - t0;
@@ -102,7 +105,7 @@ impl FdMeter {
 pub struct SetpointWriter<W: Write> {
     out: W,
     extra_cols: Vec<usize>,
-    line: String,
+    line: Vec<u8>,
     /// Finite differences of the printed rows.
     pub fd: FdMeter,
     /// Rows written.
@@ -113,11 +116,50 @@ pub struct SetpointWriter<W: Write> {
     pub first: Option<(f64, [f64; 3])>,
 }
 
-/// Formats `v` with 9 decimals into `line` and returns the value as printed.
-fn put(line: &mut String, v: f64) -> f64 {
-    let start = line.len();
-    let _ = write!(line, "{v:.9}");
-    line[start..].parse().unwrap_or(f64::NAN)
+/// Largest magnitude printed through the integer fast path of [`put`] (units of 1e-9).
+const FAST_LIMIT: f64 = 9.0e15;
+/// Powers of ten for the fixed-point formatting.
+const SCALE: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
+
+/// Formats `v` with `decimals` (at most 9) decimals into `line` and returns the value as
+/// printed. Fast path: `v` is rounded to an integer `i` of units of `10^-decimals`, which
+/// is printed exactly; the printed decimal is then `i / 10^decimals`, and that division is
+/// the correctly rounded double of the printed text (both operands are exact), i.e. what
+/// parsing the text back would give.
+fn put(line: &mut Vec<u8>, v: f64, decimals: usize) -> f64 {
+    let scale = SCALE[decimals];
+    let r = (v * scale).round();
+    if !(r.abs() < FAST_LIMIT) {
+        let text = format!("{v:.decimals$}");
+        line.extend_from_slice(text.as_bytes());
+        return text.parse().unwrap_or(f64::NAN);
+    }
+    let i = r as i64;
+    if i < 0 {
+        line.push(b'-');
+    }
+    // Digits of |i| from the right, with the decimal point inserted; at least one
+    // integer digit.
+    let mut u = i.unsigned_abs();
+    let mut buf = [0u8; 24];
+    let mut k = buf.len();
+    let mut written = 0usize;
+    while u > 0 || written <= decimals {
+        if written == decimals && decimals > 0 {
+            k -= 1;
+            buf[k] = b'.';
+        }
+        k -= 1;
+        buf[k] = b'0' + (u % 10) as u8;
+        u /= 10;
+        written += 1;
+    }
+    line.extend_from_slice(&buf[k..]);
+    if i == 0 {
+        // "-0.000..." is never printed; the value is zero.
+        return 0.0;
+    }
+    i as f64 / scale
 }
 
 impl<W: Write> SetpointWriter<W> {
@@ -137,7 +179,7 @@ impl<W: Write> SetpointWriter<W> {
         Ok(SetpointWriter {
             out,
             extra_cols,
-            line: String::with_capacity(128),
+            line: Vec::with_capacity(128),
             fd: FdMeter::default(),
             rows: 0,
             last: None,
@@ -147,19 +189,20 @@ impl<W: Write> SetpointWriter<W> {
     /// Writes one row.
     pub fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
         self.line.clear();
-        let t = put(&mut self.line, sp.t);
+        let t = put(&mut self.line, sp.t, 9);
         let mut x = [0.0; 3];
         for i in 0..3 {
-            self.line.push(',');
-            x[i] = put(&mut self.line, sp.p[i]);
+            self.line.push(b',');
+            x[i] = put(&mut self.line, sp.p[i], 9);
         }
-        let _ = write!(self.line, ",{:.6}", sp.feed);
+        self.line.push(b',');
+        put(&mut self.line, sp.feed, 6);
         for &i in &self.extra_cols {
-            let v = sp.extra.map_or(0.0, |e| e[i]);
-            let _ = write!(self.line, ",{v:.9}");
+            self.line.push(b',');
+            put(&mut self.line, sp.extra.map_or(0.0, |e| e[i]), 9);
         }
-        self.line.push('\n');
-        self.out.write_all(self.line.as_bytes())?;
+        self.line.push(b'\n');
+        self.out.write_all(&self.line)?;
         self.fd.push(t, x);
         self.rows += 1;
         if self.first.is_none() {
@@ -196,6 +239,46 @@ mod tests {
             fd.push(t, [3.0 * t * t, 0.0, 0.0]);
         }
         assert!((fd.stats.a_max[0] - 6.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fast_formatting_matches_std() {
+        let vals = [
+            0.0,
+            -0.0,
+            1.5,
+            -1.5,
+            1e-10,
+            -4e-10,
+            6e-10,
+            123.456789012345,
+            -98765.4321,
+            0.1 + 0.2,
+            2.5e-9,
+            1e7,
+            -3e9,
+            1e300,
+            f64::NAN,
+        ];
+        for v in vals {
+            let mut a = Vec::new();
+            let got = put(&mut a, v, 9);
+            let a = String::from_utf8(a).unwrap();
+            let b = format!("{v:.9}");
+            let parsed: f64 = a.parse().unwrap_or(f64::NAN);
+            if v.is_nan() {
+                assert!(got.is_nan());
+                continue;
+            }
+            // Same text up to the sign of zero and ties, and the returned value is the
+            // text parsed back.
+            let bv: f64 = b.parse().unwrap();
+            assert!(
+                (parsed - bv).abs() <= 1e-9 * (1.0 + v.abs() * 1e-7),
+                "{v}: {a} vs {b}"
+            );
+            assert_eq!(got, parsed, "{v}: {a}");
+        }
     }
 
     #[test]
