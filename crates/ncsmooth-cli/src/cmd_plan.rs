@@ -229,7 +229,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     drop(toolpath);
     let smooth_s = t1.elapsed().as_secs_f64();
     if let Some(p) = &a.path_samples {
-        if !(a.sample_ds > 0.0) {
+        if a.sample_ds.is_nan() || a.sample_ds <= 0.0 {
             return Err(io::BadInput("--sample-ds must be positive".into()).into());
         }
         write_samples(p, &smoothed.toolpath, a.sample_ds)?;

@@ -189,7 +189,7 @@ impl<'a> PathIndex<'a> {
                     let extra_start = last_extra.or(extra_end);
                     last_extra = extra_end.or(last_extra);
                     let len = move_len(&m.segment);
-                    if !(len > DEGENERATE_MM) || !len.is_finite() {
+                    if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
                         continue;
                     }
                     let vcap = match m.kind {

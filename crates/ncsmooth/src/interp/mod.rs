@@ -340,7 +340,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
         };
         if !(xi > lo && xi <= hi) {
             xi = (u0 + 2.0 * len / sp.max(f64::MIN_POSITIVE)).min(hi);
-            if !(xi > lo) {
+            if xi.is_nan() || xi <= lo {
                 xi = 0.5 * (lo + hi);
             }
         }

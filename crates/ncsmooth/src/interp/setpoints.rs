@@ -129,7 +129,7 @@ const SCALE: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
 fn put(line: &mut Vec<u8>, v: f64, decimals: usize) -> f64 {
     let scale = SCALE[decimals];
     let r = (v * scale).round();
-    if !(r.abs() < FAST_LIMIT) {
+    if r.is_nan() || r.abs() >= FAST_LIMIT {
         let text = format!("{v:.decimals$}");
         line.extend_from_slice(text.as_bytes());
         return text.parse().unwrap_or(f64::NAN);
