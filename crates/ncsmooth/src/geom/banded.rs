@@ -163,7 +163,7 @@ mod tests {
         for k in (0..n).rev() {
             let mut s = b[k];
             for c in (k + 1)..n {
-                s = s - b[c] * a[k][c];
+                s -= b[c] * a[k][c];
             }
             b[k] = s / a[k][k];
         }

@@ -39,7 +39,7 @@ use super::arc_corner::{blend_items, tangent_length, Item, CORNER_TOL_SHARE};
 use super::screen::{screen, Run, ScreenOptions};
 use super::{Chain, ChainPos, SmoothOptions, SmoothReport};
 use crate::geom::interp::{interpolate, interpolate_with_tangents, Parametrization};
-use crate::geom::{Line, ParamCurve, Segment, Vec3};
+use crate::geom::{Line, Segment, Vec3};
 use crate::path::Move;
 use crate::verify::{deviation_segments, DEGENERATE_MM};
 
@@ -364,6 +364,7 @@ pub fn smooth_nurbs(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::ParamCurve;
     use crate::path::Toolpath;
     use crate::smooth::{smooth, Method};
     use crate::verify::{continuity_joints, deviation, JointClass};
