@@ -57,6 +57,12 @@ fn wu_setting_on_profiles() {
             // Unsmoothed micro-lines: every tangent break is an exact stop.
             assert!(r.exact_stops.corner > 0);
         }
+        // Wu's own methods: the micro-lines fitted and the corners blended.
+        for m in [Method::Arc, Method::Nurbs] {
+            if let Some(r) = wu(f, m) {
+                assert!(r.exact_stops.corner <= 1, "{f} {m:?}: {:?}", r.exact_stops);
+            }
+        }
     }
 }
 
