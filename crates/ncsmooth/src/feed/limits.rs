@@ -21,6 +21,8 @@ pub struct Caps {
     pub period_s: f64,
     /// Chord error (mm).
     pub chord_error_mm: f64,
+    /// Jerk mode (see [`super::jerk`]): the scalar tangential limit and the jerk caps.
+    pub jerk: Option<super::jerk::JerkCaps>,
 }
 
 /// Largest `x = v^2` allowed at a point with unit tangent `t`, curvature vector `k` (1/mm)
@@ -133,7 +135,7 @@ pub struct Interval {
 
 /// Linear constraints `a p + b q <= c` in `p = x_start`, `q = x_end` (at most 4 per axis).
 struct Rows {
-    r: [(f64, f64, f64); 12],
+    r: [(f64, f64, f64); 14],
     n: usize,
 }
 
@@ -141,7 +143,7 @@ impl Interval {
     fn rows(&self, caps: &Caps) -> Rows {
         let h = 2.0 * self.ds;
         let mut rows = Rows {
-            r: [(0.0, 0.0, 0.0); 12],
+            r: [(0.0, 0.0, 0.0); 14],
             n: 0,
         };
         let mut push = |a: f64, b: f64, c: f64| {
@@ -159,6 +161,11 @@ impl Interval {
             // End: |(q - p)/h t1 + q k1| <= A.
             push(-t1, t1 + h * k1, ha);
             push(t1, -t1 - h * k1, ha);
+        }
+        if let Some(j) = caps.jerk {
+            // Jerk mode: |u| = |q - p| / h <= U.
+            push(-1.0, 1.0, h * j.u_max_mm_s2);
+            push(1.0, -1.0, h * j.u_max_mm_s2);
         }
         rows
     }
@@ -179,8 +186,8 @@ impl Interval {
         // Fourier-Motzkin elimination of q: upper bounds q <= al + be p, lower bounds
         // q >= ga + de p; the feasible p form an interval containing 0 (p = q = 0 needs
         // no acceleration), so the largest p is the least of the upper bounds on p.
-        let mut up = [(q_cap, 0.0); 13];
-        let mut lo = [(0.0, 0.0); 13];
+        let mut up = [(q_cap, 0.0); 15];
+        let mut lo = [(0.0, 0.0); 15];
         let (mut nu, mut nl) = (1usize, 1usize);
         let mut p_max = p_cap;
         for &(a, b, c) in &rows.r[..rows.n] {
@@ -232,6 +239,7 @@ mod tests {
             vaxis: None,
             period_s: 0.001,
             chord_error_mm: 0.001,
+            jerk: None,
         }
     }
 
