@@ -415,7 +415,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 };
                 // Jerk mode: the scalar tangential limit, and lines cut so that the
                 // dilated caps are resolved along them (see `super::jerk`).
-                iv.u_line = iv.u_line.min(j.u_max_mm_s2);
+                iv.u_line = j.u_max_mm_s2;
                 let cuts = super::jerk::line_cuts(m.len);
                 let mut list = Vec::with_capacity(cuts.len() + 1);
                 let mut prev = 0.0;

@@ -80,7 +80,7 @@ use super::limits::NEGLIGIBLE;
 
 /// Share of each axis's acceleration limit given to the curvature term `v^2 K_i`; the rest,
 /// `1 - share`, is the tangential limit `U`.
-pub const CURVATURE_ACC_SHARE: f64 = 0.5;
+pub const CURVATURE_ACC_SHARE: f64 = 0.7;
 /// Share of each jerk limit for the tangential term `s''' T_i`.
 pub const TANGENTIAL_JERK_SHARE: f64 = 0.5;
 /// Fraction of a step in acceleration that shows as a change between two consecutive
@@ -176,6 +176,9 @@ const SPEED_CAP_BISECTIONS: usize = 60;
 /// Shortest line piece (mm) at a line's ends in jerk mode; pieces double from there.
 pub const LINE_CUT_MIN_MM: f64 = 1e-3;
 
+/// Lines shorter than this many [`LINE_CUT_MIN_MM`] get no geometric cuts at their ends.
+const MIN_GEOMETRIC_CUT_LEN: f64 = 16.0;
+
 /// Largest dilation reach (mm): `V_max W`.
 pub fn dilation_radius_mm(v_max_mm_s: f64, window_s: f64) -> f64 {
     v_max_mm_s * window_s
@@ -186,7 +189,12 @@ pub fn dilation_radius_mm(v_max_mm_s: f64, window_s: f64) -> f64 {
 pub fn line_cuts(len: f64) -> Vec<f64> {
     let step = super::grid::MAX_CURVE_DS_MM;
     let mut cuts = Vec::new();
-    let mut d = LINE_CUT_MIN_MM;
+    // Lines this short are already finer than the corners they join need.
+    let mut d = if len <= MIN_GEOMETRIC_CUT_LEN * LINE_CUT_MIN_MM {
+        f64::INFINITY
+    } else {
+        LINE_CUT_MIN_MM
+    };
     while d < step && d < 0.5 * len {
         cuts.push(d);
         cuts.push(len - d);
@@ -207,20 +215,21 @@ mod tests {
     #[test]
     fn window_and_speed_caps() {
         let c = JerkCaps::new([500.0; 3], [5000.0; 3], 0.001);
-        // U = 250, J planned = 4950 - 8: W = 500 / (0.5 * 4942).
-        assert!((c.u_max_mm_s2 - 250.0).abs() < 1e-12);
-        assert!((c.window_s - 500.0 / (0.5 * 4942.0)).abs() < 1e-12);
-        let budget = 0.5 * 4942.0;
-        // Coupling alone on a radius-10 circle in XY at (10, 0): X carries the curvature.
+        // U = (1 - 0.7) 500 = 150, J planned = 4950 - 8: W = 2 U / (0.5 * 4942).
+        let u = (1.0 - CURVATURE_ACC_SHARE) * 500.0;
+        assert!((c.u_max_mm_s2 - u).abs() < 1e-12);
+        assert!((c.window_s - 2.0 * u / (0.5 * 4942.0)).abs() < 1e-12);
+        let budget = (1.0 - TANGENTIAL_JERK_SHARE) * 4942.0;
+        // Coupling alone on a radius-1 circle in XY at (1, 0): X carries the curvature.
         // There v / W < U: 3 v (v / W) |k| = budget.
-        let x = c.speed_cap_x(Vec3::new(-0.1, 0.0, 0.0), Vec3::ZERO, Vec3::ZERO);
-        let xw = budget * c.window_s / (3.0 * 0.1);
-        assert!(xw.sqrt() / c.window_s < c.u_max_mm_s2);
+        let x = c.speed_cap_x(Vec3::new(-1.0, 0.0, 0.0), Vec3::ZERO, Vec3::ZERO);
+        let xw = budget * c.window_s / 3.0;
+        assert!(xw.sqrt() / c.window_s < u);
         assert!((x - xw).abs() < 1e-9 * x, "{x} {xw}");
         // A gentle curve (radius 1000) is charged the full U.
         let x = c.speed_cap_x(Vec3::new(-1e-3, 0.0, 0.0), Vec3::ZERO, Vec3::ZERO);
-        let v = budget / (3.0 * 250.0 * 1e-3);
-        assert!(v / c.window_s > c.u_max_mm_s2);
+        let v = budget / (3.0 * u * 1e-3);
+        assert!(v / c.window_s > u);
         assert!((x - v * v).abs() < 1e-9 * x);
         // Joint step alone: line into a radius-1 arc.
         let x = c.speed_cap_x(Vec3::ZERO, Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0));
@@ -233,8 +242,7 @@ mod tests {
             Vec3::new(st, 0.0, 0.0),
         );
         let v = x.sqrt();
-        let f =
-            3.0 * v * (v / c.window_s).min(250.0) * k + v * v * v * r + 0.75 * v * v * st / 0.001;
+        let f = 3.0 * v * (v / c.window_s).min(u) * k + v * v * v * r + 0.75 * v * v * st / 0.001;
         assert!((f - budget).abs() < 1e-9 * budget, "{f}");
         assert_eq!(
             c.speed_cap_x(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO),

@@ -135,7 +135,7 @@ pub struct Interval {
 
 /// Linear constraints `a p + b q <= c` in `p = x_start`, `q = x_end` (at most 4 per axis).
 struct Rows {
-    r: [(f64, f64, f64); 14],
+    r: [(f64, f64, f64); 12],
     n: usize,
 }
 
@@ -143,7 +143,7 @@ impl Interval {
     fn rows(&self, caps: &Caps) -> Rows {
         let h = 2.0 * self.ds;
         let mut rows = Rows {
-            r: [(0.0, 0.0, 0.0); 14],
+            r: [(0.0, 0.0, 0.0); 12],
             n: 0,
         };
         let mut push = |a: f64, b: f64, c: f64| {
@@ -152,6 +152,13 @@ impl Interval {
                 rows.n += 1;
             }
         };
+        if let Some(j) = caps.jerk {
+            // Jerk mode: the plan's only acceleration constraint is |u| = |q - p| / h <= U
+            // (the axes' share of the curvature term is a speed cap; see `super::jerk`).
+            push(-1.0, 1.0, h * j.u_max_mm_s2);
+            push(1.0, -1.0, h * j.u_max_mm_s2);
+            return rows;
+        }
         for i in 0..3 {
             let ha = h * caps.acc[i];
             let (t0, k0, t1, k1) = (self.t0[i], self.k0[i], self.t1[i], self.k1[i]);
@@ -161,11 +168,6 @@ impl Interval {
             // End: |(q - p)/h t1 + q k1| <= A.
             push(-t1, t1 + h * k1, ha);
             push(t1, -t1 - h * k1, ha);
-        }
-        if let Some(j) = caps.jerk {
-            // Jerk mode: |u| = |q - p| / h <= U.
-            push(-1.0, 1.0, h * j.u_max_mm_s2);
-            push(1.0, -1.0, h * j.u_max_mm_s2);
         }
         rows
     }
@@ -186,8 +188,8 @@ impl Interval {
         // Fourier-Motzkin elimination of q: upper bounds q <= al + be p, lower bounds
         // q >= ga + de p; the feasible p form an interval containing 0 (p = q = 0 needs
         // no acceleration), so the largest p is the least of the upper bounds on p.
-        let mut up = [(q_cap, 0.0); 15];
-        let mut lo = [(0.0, 0.0); 15];
+        let mut up = [(q_cap, 0.0); 13];
+        let mut lo = [(0.0, 0.0); 13];
         let (mut nu, mut nl) = (1usize, 1usize);
         let mut p_max = p_cap;
         for &(a, b, c) in &rows.r[..rows.n] {

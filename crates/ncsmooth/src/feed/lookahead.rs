@@ -6,6 +6,8 @@ use super::grid::{GridGen, GridPoint, PathIndex};
 use super::limits::Interval;
 use super::{PlanOptions, StopCounts, StopReason};
 use serde::Serialize;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 use std::time::Instant;
 
 /// Grid points a window starts with; a window grows (doubles) when no point in it is
@@ -138,28 +140,34 @@ fn dilate(
     };
     let total = tail.len() + n;
     let s_last = pts[n - 1].s;
-    let reach = |c: f64| window_s * c.sqrt();
+    // Sweep: sources as intervals [s - reach, s + reach] sorted by start; a min-heap
+    // (by cap) of the started ones, dropping those that ended before the query.
+    let mut iv_src: Vec<(f64, f64, f64)> = (0..total)
+        .filter_map(|i| {
+            let (sj, cj) = seq(i);
+            let r = (window_s * cj.sqrt()).min(radius);
+            cj.is_finite().then_some((sj - r, sj + r, cj))
+        })
+        .collect();
+    iv_src.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut heap: BinaryHeap<Reverse<(u64, usize)>> = BinaryHeap::new();
+    let mut next = 0;
     capv.clear();
     dil.clear();
-    let mut lo = 0;
     for k in 0..n {
         // The point's two neighbouring intervals.
         let (a, b) = (pts[k.saturating_sub(1)].s, pts[(k + 1).min(n - 1)].s);
-        while lo < total && seq(lo).0 < a - radius {
-            lo += 1;
+        while next < iv_src.len() && iv_src[next].0 <= b {
+            // Caps are >= 0, so their bit patterns order like the values.
+            heap.push(Reverse((iv_src[next].2.max(0.0).to_bits(), next)));
+            next += 1;
         }
-        let mut c = f64::INFINITY;
-        let mut i = lo;
-        while i < total {
-            let (sj, cj) = seq(i);
-            if sj > b + radius {
-                break;
-            }
-            if cj < c && (a - sj).max(sj - b).max(0.0) <= reach(cj) {
-                c = cj;
-            }
-            i += 1;
+        while heap.peek().is_some_and(|Reverse((_, j))| iv_src[*j].1 < a) {
+            heap.pop();
         }
+        let mut c = heap
+            .peek()
+            .map_or(f64::INFINITY, |Reverse((bits, _))| f64::from_bits(*bits));
         if !ended && b + radius > s_last {
             c = 0.0;
         }

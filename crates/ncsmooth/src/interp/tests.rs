@@ -400,3 +400,35 @@ proptest! {
         assert_jerk_limits(&rep);
     }
 }
+
+#[test]
+fn jerk_micro_segments_do_not_oscillate() {
+    // 20000 collinear 0.01 mm segments (several planning windows): with jerk limiting the
+    // planned feed rises once, cruises and falls once, like one 200 mm line.
+    let pts: Vec<Vec3> = (0..=20000)
+        .map(|i| Vec3::new(i as f64 * 0.01, 0.0, 0.0))
+        .collect();
+    let tp = Toolpath::from_polyline(&pts, None);
+    let p = PlanOptions {
+        jerk_mm_s3: Some([5000.0; 3]),
+        ..Default::default()
+    };
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_jerk_limits(&rep);
+    assert!(rep.planning.windows > 1);
+    let one = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(200.0, 0.0, 0.0)], None);
+    let (single, _) = run(&one, &p, &InterpOptions::default());
+    assert!((rep.cycle_time_s - single.cycle_time_s).abs() <= p.period_s + 1e-9);
+    let mut falling = false;
+    for w in r.windows(2) {
+        let (f0, f1) = (w[0][4], w[1][4]);
+        if f1 < f0 - 1e-6 {
+            falling = true;
+        }
+        assert!(
+            !falling || f1 <= f0 + 1e-6,
+            "feed rises after falling: {w:?}"
+        );
+    }
+}
