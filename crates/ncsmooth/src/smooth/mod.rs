@@ -27,6 +27,7 @@
 //! * [`Method::Nurbs`]: Wu et al., NURBS fitting of micro-line runs plus arc corners.
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
+pub mod bspline_corner;
 pub mod screen;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
@@ -87,6 +88,8 @@ pub struct SmoothOptions {
     /// Junctions turning by less than this (degrees) pass through unchanged. Default:
     /// [`TANGENT_TOL_DEG`], the angle the continuity audit already calls tangent.
     pub straight_angle_deg: f64,
+    /// Settings of [`Method::Bspline`]. Default: [`bspline_corner::BsplineOptions::default`].
+    pub bspline: bspline_corner::BsplineOptions,
 }
 
 impl Default for SmoothOptions {
@@ -95,6 +98,7 @@ impl Default for SmoothOptions {
             method: Method::None,
             tol_mm: 0.01,
             straight_angle_deg: TANGENT_TOL_DEG,
+            bspline: Default::default(),
         }
     }
 }
@@ -134,7 +138,7 @@ impl SmoothOptions {
                 "degrees in [0, 90)",
             ));
         }
-        Ok(())
+        self.bspline.validate()
     }
 }
 
@@ -358,9 +362,10 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
     })
 }
 
-fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, _report: &mut SmoothReport) -> Vec<Move> {
+fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
     match opts.method {
         Method::None => passthrough(chain),
+        Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),
         // Methods are added in their own modules.
         _ => passthrough(chain),
     }
