@@ -352,7 +352,6 @@ fn classify(e0: &Elem, e1: &Elem, m0: &Move, m1: &Move, straight_deg: f64) -> Ju
 struct Placed {
     bez: [CubicBez; 2],
     p0: Vec3,
-    p4: Vec3,
     pos0: ChainPos,
     pos4: ChainPos,
 }
@@ -401,7 +400,6 @@ fn place(
     Some(Placed {
         bez: t.beziers(),
         p0: t.ctrl[0],
-        p4: t.ctrl[4],
         pos0,
         pos4,
     })
