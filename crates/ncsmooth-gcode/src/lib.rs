@@ -9,7 +9,7 @@
 //!   multi-turn, I/J/K or R) and events, in millimetres. Errors are typed
 //!   ([`ParseErrorKind`]) and located (file, line, column, byte range); no input, however
 //!   malformed, makes the parser panic.
-//! * [`write`]: the toolpath back to G-code ([`writer`]), flattening what G-code cannot
+//! * [`write()`]: the toolpath back to G-code ([`writer`]), flattening what G-code cannot
 //!   carry natively.
 //!
 //! See each module for the rules and the decisions taken where the standard leaves room.

@@ -61,7 +61,8 @@
 //! * `G28`/`G30` (with or without axis words) and `G28.1`/`G30.1` are kept as events.
 //!   `G28`/`G30` move the machine home, after which the real position is unknown to the
 //!   parser: it warns and keeps the position unchanged, so the next move starts from the
-//!   last programmed point.
+//!   last programmed point. The event text carries the axis words as programmed
+//!   (converted to mm); their intermediate-point meaning is not interpreted.
 //! * `G92` with only `E` (slicer `G92 E0`) resets the E axis and is an event. `G92` on any
 //!   other axis, and `G92.1`..`G92.3`, `G52`, `G10`, are unsupported: they shift the
 //!   coordinate system under the program.
@@ -220,6 +221,10 @@ impl<'a> Interp<'a> {
         let src = self.src;
         let bytes = src.as_bytes();
         self.stats.bytes = bytes.len();
+        // One block per line at most, give or take: reserve up front instead of growing
+        // (and copying) a vector of 200-byte blocks many times.
+        let newlines = bytes.iter().filter(|&&b| b == b'\n').count();
+        self.tp.blocks.reserve(newlines + 1);
         let mut start = 0;
         while start < bytes.len() {
             let end = memchr_newline(&bytes[start..]).map_or(bytes.len(), |p| start + p);
@@ -429,7 +434,7 @@ impl<'a> Interp<'a> {
                 }
                 330 | 331 => return Err(self.unsupported(c, "spindle-synchronised motion is not supported")),
                 382..=385 => return Err(self.unsupported(c, "probing is not supported")),
-                50 | 51 | 52 | 53 => return Err(self.unsupported(c, "spline motion is not supported")),
+                50..=53 => return Err(self.unsupported(c, "spline motion is not supported")),
                 70 | 80 => return Err(self.unsupported(c, "lathe diameter/radius mode is not supported")),
                 160 => return Err(self.unsupported(c, "polar coordinates are not supported")),
                 100 => {
