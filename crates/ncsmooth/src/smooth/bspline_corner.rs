@@ -92,7 +92,7 @@
 //! curvature above the continuity audit's 1e-4 / mm (rounding of collinear points): the
 //! joint is G2 in exact arithmetic but audited G1.
 
-use super::{assemble, Chain, ChainPos, OptionsError, OutPiece, SmoothOptions, SmoothReport};
+use super::{extra_at, Chain, ChainPos, OptionsError, SmoothOptions, SmoothReport};
 use crate::geom::{
     CubicBez, Line, ParamCurve, ParamCurveArclen, ParamCurveCurvature, Segment, Vec3,
 };
@@ -405,23 +405,47 @@ fn place(
     })
 }
 
-/// Output under construction: pieces and the current point.
-struct Emitter {
-    pieces: Vec<OutPiece>,
+/// Output under construction: the moves and the current point. Moves are built as
+/// [`super::assemble`] builds them from pieces (line of the move the piece starts in, the
+/// lowest feed of the moves it spans, extra axes at its end), without the intermediate
+/// piece list.
+struct Emitter<'c, 'm> {
+    chain: &'c Chain<'m>,
+    out: Vec<Move>,
     cur: Vec3,
     cur_pos: ChainPos,
 }
 
-impl Emitter {
+impl Emitter<'_, '_> {
+    /// Appends `segment`, spanning the chain from the current position to `to`.
+    #[inline]
+    fn push(&mut self, segment: Segment, to: ChainPos) {
+        let moves = self.chain.moves;
+        let (a, b) = (
+            self.cur_pos.index.min(to.index),
+            self.cur_pos.index.max(to.index),
+        );
+        let feed = moves[a..=b]
+            .iter()
+            .filter_map(|m| m.feed_mm_s)
+            .fold(None, |acc: Option<f64>, f| {
+                Some(acc.map_or(f, |x| x.min(f)))
+            });
+        self.out.push(Move {
+            segment,
+            kind: MoveKind::Feed,
+            feed_mm_s: feed,
+            line: moves[self.cur_pos.index].line,
+            extra: extra_at(self.chain, to),
+            machine_coords: false,
+        });
+        self.cur_pos = to;
+    }
     /// A line from the current point to `p` (skipped when shorter than [`DEGENERATE_MM`]).
     #[inline]
     fn line_to(&mut self, p: Vec3, pos: ChainPos) {
         if self.cur.dist_sq(p) > DEGENERATE_MM * DEGENERATE_MM {
-            self.pieces.push(OutPiece {
-                segment: Segment::Line(Line::new(self.cur, p)),
-                from: self.cur_pos,
-                to: pos,
-            });
+            self.push(Segment::Line(Line::new(self.cur, p)), pos);
             self.cur = p;
         }
         self.cur_pos = pos;
@@ -431,13 +455,8 @@ impl Emitter {
     #[inline]
     fn curve(&mut self, mut c: CubicBez, to: ChainPos) {
         c.p0 = self.cur;
-        self.pieces.push(OutPiece {
-            segment: Segment::CubicBez(c),
-            from: self.cur_pos,
-            to,
-        });
         self.cur = c.p3;
-        self.cur_pos = to;
+        self.push(Segment::CubicBez(c), to);
     }
 }
 
@@ -509,7 +528,8 @@ pub fn smooth_chain(
     let (tol, sem, lambda) = (opts.tol_mm, bopts.band_semantics, bopts.lambda);
 
     let mut em = Emitter {
-        pieces: Vec::with_capacity(3 * n + 2),
+        chain,
+        out: Vec::with_capacity(3 * n + 2),
         cur: elems[0].a,
         cur_pos: ChainPos::start_of(elems[0].idx),
     };
@@ -553,13 +573,9 @@ pub fn smooth_chain(
     for j in 0..n {
         let e = elems[j];
         if !e.line {
-            em.pieces.push(OutPiece {
-                segment: moves[e.idx].segment.clone(),
-                from: ChainPos::start_of(e.idx),
-                to: ChainPos::end_of(e.idx),
-            });
+            em.cur_pos = ChainPos::start_of(e.idx);
+            em.push(moves[e.idx].segment.clone(), ChainPos::end_of(e.idx));
             em.cur = e.b;
-            em.cur_pos = ChainPos::end_of(e.idx);
             from_transition = false;
             continue;
         }
@@ -612,7 +628,7 @@ pub fn smooth_chain(
             }
         }
     }
-    assemble(chain, em.pieces)
+    em.out
 }
 
 /// Curvature along arc length of the feed moves of `tp`, as `(s_mm, kappa_per_mm)` pairs:
@@ -1035,6 +1051,39 @@ mod tests {
         assert!(prof.windows(2).all(|w| w[1].0 >= w[0].0));
         let kmax = prof.iter().map(|p| p.1).fold(0.0, f64::max);
         assert!(kmax > 0.0 && kmax.is_finite());
+    }
+
+    #[test]
+    fn feeds_lines_and_extra_axes_follow_the_program() {
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        let mut r = Move::rapid(Line::new(Vec3::Z, Vec3::ZERO), 6);
+        r.extra = Some([0.0; 7]);
+        tp.push_move(r);
+        let mut m1 = Move::feed(Line::new(Vec3::ZERO, Vec3::X * 4.0), Some(10.0), 7);
+        m1.extra = Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 4.0]);
+        let mut m2 = Move::feed(
+            Line::new(Vec3::X * 4.0, Vec3::new(4.0, 4.0, 0.0)),
+            Some(5.0),
+            8,
+        );
+        m2.extra = Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 8.0]);
+        tp.push_move(m1);
+        tp.push_move(m2);
+        let out = smooth(&tp, &bspline_opts(0.1)).unwrap().toolpath;
+        let moves: Vec<&Move> = out.moves().skip(1).collect();
+        assert_eq!(moves.len(), 4);
+        // Line on leg 1, first half (leg 1), second half (spans both), line on leg 2.
+        let feeds: Vec<_> = moves.iter().map(|m| m.feed_mm_s.unwrap()).collect();
+        assert_eq!(feeds, vec![10.0, 10.0, 5.0, 5.0]);
+        let lines: Vec<_> = moves.iter().map(|m| m.line).collect();
+        assert_eq!(lines, vec![7, 7, 7, 8]);
+        // E is linear in arc length within each programmed move, evaluated at piece ends.
+        let l = 2.0 * 0.1 * (1.0 - TOL_SAFETY) / std::f64::consts::FRAC_PI_4.cos();
+        let e = |m: &Move| m.extra.unwrap()[6];
+        assert!((e(moves[0]) - (4.0 - 2.0 * l)).abs() < 1e-12);
+        assert_eq!(e(moves[1]), 4.0);
+        assert!((e(moves[2]) - (4.0 + 2.0 * l)).abs() < 1e-12);
+        assert_eq!(e(moves[3]), 8.0);
     }
 
     #[test]
