@@ -27,7 +27,9 @@
 //! * [`Method::Nurbs`]: Wu et al., NURBS fitting of micro-line runs plus arc corners.
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
+pub mod arc_corner;
 pub mod bspline_corner;
+pub mod nurbs_hybrid;
 pub mod screen;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
@@ -90,6 +92,10 @@ pub struct SmoothOptions {
     pub straight_angle_deg: f64,
     /// Settings of [`Method::Bspline`]. Default: [`bspline_corner::BsplineOptions::default`].
     pub bspline: bspline_corner::BsplineOptions,
+    /// Corner arcs of [`Method::Arc`] and [`Method::Nurbs`]. Default: [`arc_corner::ArcOptions::default`].
+    pub arc: arc_corner::ArcOptions,
+    /// Fitting of [`Method::Nurbs`]. Default: [`nurbs_hybrid::NurbsOptions::default`].
+    pub nurbs: nurbs_hybrid::NurbsOptions,
 }
 
 impl Default for SmoothOptions {
@@ -99,6 +105,8 @@ impl Default for SmoothOptions {
             tol_mm: 0.01,
             straight_angle_deg: TANGENT_TOL_DEG,
             bspline: Default::default(),
+            arc: Default::default(),
+            nurbs: Default::default(),
         }
     }
 }
@@ -136,6 +144,21 @@ impl SmoothOptions {
                 "straight angle",
                 self.straight_angle_deg,
                 "degrees in [0, 90)",
+            ));
+        }
+        if !(self.arc.min_radius_mm >= 0.0 && self.arc.min_radius_mm.is_finite()) {
+            return Err(OptionsError::OutOfRange(
+                "min arc radius",
+                self.arc.min_radius_mm,
+                "a length >= 0 in mm",
+            ));
+        }
+        let share = self.nurbs.fit_accuracy_share;
+        if !(share > 0.0 && share < 1.0) {
+            return Err(OptionsError::OutOfRange(
+                "fit accuracy share",
+                share,
+                "a share in (0, 1)",
             ));
         }
         self.bspline.validate()
@@ -366,6 +389,8 @@ fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRepo
     match opts.method {
         Method::None => passthrough(chain),
         Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),
+        Method::Arc => arc_corner::smooth_arc(chain, opts, report),
+        Method::Nurbs => nurbs_hybrid::smooth_nurbs(chain, opts, report),
         // Methods are added in their own modules.
         _ => passthrough(chain),
     }
