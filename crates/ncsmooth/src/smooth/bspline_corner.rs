@@ -387,11 +387,12 @@ fn place(
     }
     let (a, b) = (-e_in.dir, e_out.dir);
     let mut t = BsplineTransition::symmetric(v, a, b, l);
-    // Where the whole available leg is used, end exactly on its end point.
-    if two_l >= avail_in {
+    // Where the whole available leg is used (up to a zero-length remainder), end exactly
+    // on its end point: no zero-length line, programmed vertices kept bit for bit.
+    if two_l >= avail_in - DEGENERATE_MM {
         t.ctrl[0] = s;
     }
-    if out_full && two_l >= avail_out {
+    if out_full && two_l >= avail_out - DEGENERATE_MM {
         t.ctrl[4] = e_out.b;
     }
     let pos0 = ChainPos {
@@ -446,13 +447,22 @@ impl Emitter<'_, '_> {
         });
         self.cur_pos = to;
     }
-    /// A line from the current point to `p` (skipped when shorter than [`DEGENERATE_MM`]).
+    /// A line from the current point to `p`. When shorter than [`DEGENERATE_MM`] it is
+    /// not emitted; instead the previous piece is made to end exactly at `p` (moving its
+    /// end by at most that much), so that programmed points (the chain's end, an arc's
+    /// start) are kept bit for bit.
     #[inline]
     fn line_to(&mut self, p: Vec3, pos: ChainPos) {
         if self.cur.dist_sq(p) > DEGENERATE_MM * DEGENERATE_MM {
             self.push(Segment::Line(Line::new(self.cur, p)), pos);
-            self.cur = p;
+        } else if self.cur != p {
+            match self.out.last_mut().map(|m| &mut m.segment) {
+                Some(Segment::Line(l)) => l.p1 = p,
+                Some(Segment::CubicBez(c)) => c.p3 = p,
+                _ => {}
+            }
         }
+        self.cur = p;
         self.cur_pos = pos;
     }
     /// A curve starting (within [`DEGENERATE_MM`]) at the current point; its start is
