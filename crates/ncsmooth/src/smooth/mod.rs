@@ -28,6 +28,7 @@
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
 pub mod arc_corner;
+pub mod bspline_corner;
 pub mod nurbs_hybrid;
 pub mod screen;
 
@@ -89,6 +90,8 @@ pub struct SmoothOptions {
     /// Junctions turning by less than this (degrees) pass through unchanged. Default:
     /// [`TANGENT_TOL_DEG`], the angle the continuity audit already calls tangent.
     pub straight_angle_deg: f64,
+    /// Settings of [`Method::Bspline`]. Default: [`bspline_corner::BsplineOptions::default`].
+    pub bspline: bspline_corner::BsplineOptions,
     /// Corner arcs of [`Method::Arc`] and [`Method::Nurbs`]. Default: [`arc_corner::ArcOptions::default`].
     pub arc: arc_corner::ArcOptions,
     /// Fitting of [`Method::Nurbs`]. Default: [`nurbs_hybrid::NurbsOptions::default`].
@@ -101,6 +104,7 @@ impl Default for SmoothOptions {
             method: Method::None,
             tol_mm: 0.01,
             straight_angle_deg: TANGENT_TOL_DEG,
+            bspline: Default::default(),
             arc: Default::default(),
             nurbs: Default::default(),
         }
@@ -157,7 +161,7 @@ impl SmoothOptions {
                 "a share in (0, 1)",
             ));
         }
-        Ok(())
+        self.bspline.validate()
     }
 }
 
@@ -384,6 +388,7 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
 fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
     match opts.method {
         Method::None => passthrough(chain),
+        Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),
         Method::Arc => arc_corner::smooth_arc(chain, opts, report),
         Method::Nurbs => nurbs_hybrid::smooth_nurbs(chain, opts, report),
         // Methods are added in their own modules.
