@@ -40,6 +40,9 @@ use serde::Serialize;
 /// Accuracy (mm) of arc-length evaluations used to place extra-axis values.
 const EXTRA_AXIS_ARCLEN_ACCURACY: f64 = 1e-9;
 
+/// Expected ratio of output to input blocks for the corner methods (capacity hint).
+const OUTPUT_GROWTH: usize = 3;
+
 /// Smoothing method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
 pub enum Method {
@@ -336,9 +339,17 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
         tol_mm: opts.tol_mm,
         ..Default::default()
     };
+    // Corner methods replace one move by up to three (trimmed line, two curve pieces).
+    let growth = if opts.method == Method::None {
+        1
+    } else {
+        OUTPUT_GROWTH
+    };
     let mut out = Toolpath {
-        blocks: Vec::with_capacity(tp.blocks.len()),
-        ..tp.clone()
+        blocks: Vec::with_capacity(tp.blocks.len() * growth),
+        start: tp.start,
+        units: tp.units,
+        extra_axes_mask: tp.extra_axes_mask,
     };
     let mut run: Vec<Move> = Vec::new();
     let mut last_extra: Option<ExtraAxes> = None;
