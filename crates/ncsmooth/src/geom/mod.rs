@@ -1,5 +1,5 @@
 //! Geometry: a `Copy` vector type, the curve capability traits and the curve kinds
-//! (line, arc/helix, cubic Bézier, NURBS), gathered in the [`Segment`] enum.
+//! (line, arc/helix, cubic Bézier, NURBS, cubic trigonometric spline), gathered in the [`Segment`] enum.
 
 mod arc;
 mod cubic_bez;
@@ -7,6 +7,7 @@ mod line;
 mod nurbs;
 mod segment;
 mod traits;
+mod trig_spline;
 mod vec3;
 
 pub use arc::Arc;
@@ -15,4 +16,5 @@ pub use line::Line;
 pub use nurbs::{Nurbs, MAX_DEGREE};
 pub use segment::Segment;
 pub use traits::*;
+pub use trig_spline::{basis as trig_basis, TrigSpline};
 pub use vec3::{Aabb, Vec3};
