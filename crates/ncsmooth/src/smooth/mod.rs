@@ -28,6 +28,7 @@
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
 pub mod screen;
+pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
 use crate::path::{Block, ExtraAxes, Move, MoveKind, Toolpath};
@@ -87,6 +88,8 @@ pub struct SmoothOptions {
     /// Junctions turning by less than this (degrees) pass through unchanged. Default:
     /// [`TANGENT_TOL_DEG`], the angle the continuity audit already calls tangent.
     pub straight_angle_deg: f64,
+    /// Settings of [`Method::Trig`]. Default: [`trig_corner::TrigOptions::default`].
+    pub trig: trig_corner::TrigOptions,
 }
 
 impl Default for SmoothOptions {
@@ -95,6 +98,7 @@ impl Default for SmoothOptions {
             method: Method::None,
             tol_mm: 0.01,
             straight_angle_deg: TANGENT_TOL_DEG,
+            trig: trig_corner::TrigOptions::default(),
         }
     }
 }
@@ -133,6 +137,15 @@ impl SmoothOptions {
                 self.straight_angle_deg,
                 "degrees in [0, 90)",
             ));
+        }
+        if let trig_corner::CornerStyle::Loop { loop_size_mm } = self.trig.corner {
+            if !(loop_size_mm > 0.0 && loop_size_mm.is_finite()) {
+                return Err(OptionsError::OutOfRange(
+                    "loop size",
+                    loop_size_mm,
+                    "a positive length in mm",
+                ));
+            }
         }
         Ok(())
     }
@@ -358,9 +371,10 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
     })
 }
 
-fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, _report: &mut SmoothReport) -> Vec<Move> {
+fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
     match opts.method {
         Method::None => passthrough(chain),
+        Method::Trig => trig_corner::smooth_chain_trig(chain, opts, report),
         // Methods are added in their own modules.
         _ => passthrough(chain),
     }
