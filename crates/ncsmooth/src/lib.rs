@@ -9,7 +9,9 @@
 
 pub mod geom;
 pub mod path;
+pub mod profiles;
 pub mod smooth;
+pub mod stats;
 pub mod verify;
 
 pub use geom::{Segment, Vec3};

@@ -1,0 +1,205 @@
+//! Errors and warnings.
+//!
+//! Every error carries the file name, the 1-based line and column (counted in Unicode
+//! scalar values, as editors do) and the byte range into the source, so that a caller can
+//! print a rustc-style snippet (the CLI uses `ariadne`). The [`ParseErrorKind`] says what
+//! went wrong in a typed way; its `Display` is the short message.
+//!
+//! Warnings are things a machine would run but that are worth a look (zero-length moves,
+//! a feed move before any `F`, a `G28` after which the position is unknown, ignored words).
+
+use std::fmt;
+use std::ops::Range;
+
+/// A parse error: where and what.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}:{line}:{column}: {kind}")]
+pub struct ParseError {
+    /// File name as given to the parser.
+    pub file: String,
+    /// 1-based line.
+    pub line: u32,
+    /// 1-based column, in characters.
+    pub column: u32,
+    /// Byte range of the offending text in the source.
+    pub byte_range: Range<usize>,
+    /// What went wrong.
+    pub kind: ParseErrorKind,
+}
+
+/// What went wrong.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParseErrorKind {
+    /// The source is not valid UTF-8.
+    #[error("invalid UTF-8")]
+    InvalidUtf8,
+    /// A word letter with no value after it (`G1 X1 Y`).
+    #[error("missing value after '{letter}'")]
+    MissingValue {
+        /// The word letter.
+        letter: char,
+    },
+    /// A number that is not `digits[.digits]` (`X1..5`, `X.`).
+    #[error("malformed number")]
+    MalformedNumber,
+    /// A `(` comment without its `)` on the same line.
+    #[error("unclosed '(' comment")]
+    UnclosedComment,
+    /// A character that cannot start a word.
+    #[error("unexpected character {ch:?}")]
+    UnexpectedChar {
+        /// The character.
+        ch: char,
+    },
+    /// A G or M code (or letter) this reader does not know.
+    #[error("unknown word {word}")]
+    UnknownWord {
+        /// The word as written canonically (`G12`, `M123.4`).
+        word: String,
+    },
+    /// A known construct that ncsmooth deliberately does not support because it changes
+    /// the motion in ways the path model cannot represent.
+    #[error("unsupported {word}: {why}")]
+    Unsupported {
+        /// The word or construct (`G41`, `O-word`, `#<name>`).
+        word: String,
+        /// Why it is refused.
+        why: &'static str,
+    },
+    /// The same letter twice in one block (`X1 X2`).
+    #[error("word '{letter}' appears twice in the block")]
+    DuplicateWord {
+        /// The letter.
+        letter: char,
+    },
+    /// Two G codes of the same modal group in one block (`G0 G1`).
+    #[error("{first} and {second} are in the same modal group")]
+    ModalConflict {
+        /// First code.
+        first: String,
+        /// Second code.
+        second: String,
+    },
+    /// A word a code needs is absent (`G4` without `P`).
+    #[error("{code} needs a {letter} word")]
+    MissingWord {
+        /// The code that needs it.
+        code: String,
+        /// The missing letter.
+        letter: char,
+    },
+    /// A value out of its allowed range (negative F, non-integer P turns, ...).
+    #[error("invalid {letter} value {value}: {why}")]
+    InvalidValue {
+        /// The word letter.
+        letter: char,
+        /// The value read.
+        value: f64,
+        /// Why it is invalid.
+        why: &'static str,
+    },
+    /// Axis words with no motion mode in force (after `G80`).
+    #[error("axis words without a motion mode (G80 is in force)")]
+    NoMotionMode,
+    /// `G2`/`G3` without `I`/`J`/`K` or `R`.
+    #[error("arc without centre: G2/G3 needs I/J/K offsets in the active plane or R")]
+    ArcNoCentre,
+    /// `G2`/`G3` with both `R` and `I`/`J`/`K`.
+    #[error("arc with both R and I/J/K")]
+    ArcMixedFormat,
+    /// `G2`/`G3` without any axis word.
+    #[error("arc without end point (no axis word)")]
+    ArcNoAxes,
+    /// Start and end radii of an I/J/K arc differ by more than max(0.005 mm, 0.1 %).
+    #[error("arc radius mismatch: {r_start} mm at the start, {r_end} mm at the end")]
+    ArcRadiusMismatch {
+        /// Radius at the start (mm).
+        r_start: f64,
+        /// Radius at the end (mm).
+        r_end: f64,
+    },
+    /// An R arc whose chord is longer than the diameter beyond tolerance.
+    #[error("arc radius {radius} mm too small for a chord of {chord} mm")]
+    ArcRadiusTooSmall {
+        /// |R| (mm).
+        radius: f64,
+        /// Chord length (mm).
+        chord: f64,
+    },
+    /// An arc that cannot be built (zero radius, R arc with end = start).
+    #[error("degenerate arc: {why}")]
+    ArcDegenerate {
+        /// Why.
+        why: &'static str,
+    },
+    /// A malformed or non-computable `[ ]` expression.
+    #[error("expression error: {why}")]
+    ExpressionError {
+        /// Why.
+        why: &'static str,
+    },
+    /// A numbered parameter read before any assignment.
+    #[error("parameter #{index} is used before being set")]
+    UndefinedParameter {
+        /// The parameter number.
+        index: u32,
+    },
+    /// A computed value or position is not finite.
+    #[error("value out of range")]
+    OutOfRange,
+}
+
+/// A non-fatal remark about the program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Warning {
+    /// 1-based source line.
+    pub line: u32,
+    /// What is remarkable.
+    pub message: String,
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "line {}: {}", self.line, self.message)
+    }
+}
+
+/// Line, column (1-based, in characters) and a char-aligned byte range for a byte offset
+/// range in `src` (which may be any bytes: columns count UTF-8 lead bytes).
+pub(crate) fn locate(src: &[u8], range: Range<usize>) -> (u32, u32, Range<usize>) {
+    let start = range.start.min(src.len());
+    let mut end = range.end.clamp(start, src.len());
+    while end < src.len() && (src[end] & 0xC0) == 0x80 {
+        end += 1;
+    }
+    let line_start = src[..start]
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |p| p + 1);
+    let line = src[..line_start].iter().filter(|&&b| b == b'\n').count() + 1;
+    let column = src[line_start..start]
+        .iter()
+        .filter(|&&b| (b & 0xC0) != 0x80)
+        .count()
+        + 1;
+    (
+        u32::try_from(line).unwrap_or(u32::MAX),
+        u32::try_from(column).unwrap_or(u32::MAX),
+        start..end,
+    )
+}
+
+impl ParseError {
+    /// Builds an error located at `range` of `src`.
+    pub(crate) fn at(file: &str, src: &[u8], range: Range<usize>, kind: ParseErrorKind) -> Self {
+        let (line, column, byte_range) = locate(src, range);
+        ParseError {
+            file: file.to_string(),
+            line,
+            column,
+            byte_range,
+            kind,
+        }
+    }
+}

@@ -1,0 +1,396 @@
+//! Byte-level lexer.
+//!
+//! RS274/NGC ignores white space everywhere outside comments and is case-insensitive, so
+//! `G 0 1 X 1 0 . 5` is the block `G01 X10.5` (LinuxCNC strips spaces before reading a
+//! line the same way). The lexer therefore works in two passes over each physical line,
+//! both without allocation in steady state:
+//!
+//! 1. `compact_line` copies the line into a reused buffer, dropping white space
+//!    (space, tab, CR, VT, FF), `( )` comments and everything after `;`, upper-casing ASCII
+//!    letters, and records for every kept byte its offset in the source (for error spans).
+//!    A `(` without `)` on the same line is an [`UnclosedComment`](ParseErrorKind::UnclosedComment)
+//!    error. A leading `/` (block delete) is dropped: ncsmooth keeps block-delete blocks,
+//!    as a controller does with its block-delete switch off. A line whose first
+//!    character is `%` is a program delimiter and is empty.
+//! 2. `read_block` splits the compacted bytes into words (a letter and a real value) and
+//!    `#n=value` parameter assignments. Values are numbers, `#n` references, `[ ]`
+//!    expressions or unary functions ([`crate::expr`]). Numbers are `digits[.digits]` or
+//!    `.digits` (no exponent, as NGC) and are converted with `str::parse::<f64>` on the
+//!    digits, so `X1234.56789` is exactly the nearest `f64`.
+//!
+//! After a value the next byte must start a word (a letter or `#`); anything else is an
+//! error. That is how `X1..5` is caught ([`MalformedNumber`](ParseErrorKind::MalformedNumber)).
+
+use crate::error::ParseErrorKind;
+use crate::expr::{read_real_value, Params};
+
+/// One line with white space and comments removed, upper case, plus a source map.
+#[derive(Default)]
+pub(crate) struct LineBuf {
+    /// Compacted bytes.
+    pub bytes: Vec<u8>,
+    /// Source byte offset of each compacted byte.
+    pub map: Vec<usize>,
+    /// Source byte offset of the end of the line (before the `\n`).
+    pub line_end: usize,
+}
+
+/// A lexical error with its source byte range.
+#[derive(Debug)]
+pub(crate) struct LexError {
+    pub kind: ParseErrorKind,
+    pub start: usize,
+    pub end: usize,
+}
+
+#[inline]
+fn is_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
+}
+
+/// Compacts `line` (which starts at source offset `line_start`) into `out`.
+pub(crate) fn compact_line(
+    line: &[u8],
+    line_start: usize,
+    out: &mut LineBuf,
+) -> Result<(), LexError> {
+    out.bytes.clear();
+    out.map.clear();
+    out.line_end = line_start + line.len();
+    let mut i = 0;
+    // Leading white space, then `%` (program delimiter) or `/` (block delete).
+    while i < line.len() && is_space(line[i]) {
+        i += 1;
+    }
+    if i < line.len() {
+        match line[i] {
+            b'%' => return Ok(()),
+            b'/' => i += 1,
+            _ => {}
+        }
+    }
+    while i < line.len() {
+        let b = line[i];
+        match b {
+            b'(' => match line[i + 1..].iter().position(|&c| c == b')') {
+                Some(p) => i += p + 2,
+                None => {
+                    return Err(LexError {
+                        kind: ParseErrorKind::UnclosedComment,
+                        start: line_start + i,
+                        end: out.line_end,
+                    })
+                }
+            },
+            b';' => break,
+            _ if is_space(b) => i += 1,
+            _ => {
+                out.bytes.push(b.to_ascii_uppercase());
+                out.map.push(line_start + i);
+                i += 1;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A cursor over a compacted line.
+pub(crate) struct Cursor<'a> {
+    pub buf: &'a [u8],
+    pub map: &'a [usize],
+    pub line_end: usize,
+    pub pos: usize,
+}
+
+impl Cursor<'_> {
+    /// The byte at the cursor, if any.
+    #[inline]
+    pub fn peek(&self) -> Option<u8> {
+        self.buf.get(self.pos).copied()
+    }
+    /// The byte `k` after the cursor, if any.
+    #[inline]
+    pub fn peek_at(&self, k: usize) -> Option<u8> {
+        self.buf.get(self.pos + k).copied()
+    }
+    /// Source offset of compacted index `i` (the line end past the last byte).
+    #[inline]
+    pub fn src(&self, i: usize) -> usize {
+        self.map.get(i).copied().unwrap_or(self.line_end)
+    }
+    /// Source offset just past compacted index `i - 1`.
+    #[inline]
+    pub fn src_end(&self, i: usize) -> usize {
+        if i == 0 {
+            self.src(0)
+        } else {
+            self.map.get(i - 1).map_or(self.line_end, |&o| o + 1)
+        }
+    }
+    /// An error spanning compacted indices `start..end`.
+    pub fn error(&self, kind: ParseErrorKind, start: usize, end: usize) -> LexError {
+        let s = self.src(start);
+        let e = self.src_end(end.max(start + 1)).max(s);
+        LexError {
+            kind,
+            start: s,
+            end: e,
+        }
+    }
+    /// True when the rest starts with `kw`.
+    #[inline]
+    pub fn starts_with(&self, kw: &[u8]) -> bool {
+        self.buf[self.pos..].starts_with(kw)
+    }
+    /// Reads `digits[.digits]` or `.digits` at the cursor.
+    pub fn read_number(&mut self) -> Result<f64, LexError> {
+        let start = self.pos;
+        let mut digits = 0;
+        while let Some(b) = self.peek() {
+            if b.is_ascii_digit() {
+                digits += 1;
+                self.pos += 1;
+            } else {
+                break;
+            }
+        }
+        if self.peek() == Some(b'.') {
+            self.pos += 1;
+            while let Some(b) = self.peek() {
+                if b.is_ascii_digit() {
+                    digits += 1;
+                    self.pos += 1;
+                } else {
+                    break;
+                }
+            }
+        }
+        let bad = |c: &Cursor<'_>| {
+            let mut end = c.pos;
+            // Swallow the rest of the number-like run for the span.
+            while end < c.buf.len() && (c.buf[end].is_ascii_digit() || c.buf[end] == b'.') {
+                end += 1;
+            }
+            c.error(ParseErrorKind::MalformedNumber, start, end)
+        };
+        if digits == 0 || self.peek() == Some(b'.') {
+            return Err(bad(self));
+        }
+        // The slice is ASCII digits and at most one '.', so it is valid UTF-8.
+        let text = std::str::from_utf8(&self.buf[start..self.pos]).map_err(|_| bad(self))?;
+        let v: f64 = text.parse().map_err(|_| bad(self))?;
+        if !v.is_finite() {
+            return Err(self.error(ParseErrorKind::OutOfRange, start, self.pos));
+        }
+        Ok(v)
+    }
+}
+
+/// A word: a letter and its value, with its source span.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Word {
+    pub letter: u8,
+    pub value: f64,
+    /// Source byte range of the word.
+    pub start: usize,
+    pub end: usize,
+}
+
+/// A pending `#n=value` assignment (applied after the line).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Assign {
+    pub index: u32,
+    pub value: f64,
+}
+
+/// Splits a compacted line into words and parameter assignments. Values are evaluated
+/// with the parameters as they were before the line.
+pub(crate) fn read_block(
+    line: &LineBuf,
+    params: &Params,
+    words: &mut Vec<Word>,
+    assigns: &mut Vec<Assign>,
+) -> Result<(), LexError> {
+    words.clear();
+    assigns.clear();
+    let mut c = Cursor {
+        buf: &line.bytes,
+        map: &line.map,
+        line_end: line.line_end,
+        pos: 0,
+    };
+    while let Some(b) = c.peek() {
+        let start = c.pos;
+        match b {
+            b'#' => {
+                if c.peek_at(1) == Some(b'<') {
+                    return Err(c.error(
+                        ParseErrorKind::Unsupported {
+                            word: "#<name>".into(),
+                            why: "named parameters are not supported (only numbered #n)",
+                        },
+                        start,
+                        start + 2,
+                    ));
+                }
+                c.pos += 1;
+                let idx_start = c.pos;
+                let idx = read_real_value(&mut c, params, 0, None)?;
+                let index = crate::expr::param_index(idx)
+                    .ok_or_else(|| c.error(ParseErrorKind::OutOfRange, idx_start, c.pos))?;
+                if c.peek() != Some(b'=') {
+                    return Err(c.error(
+                        ParseErrorKind::ExpressionError {
+                            why: "expected '=' in parameter assignment",
+                        },
+                        start,
+                        c.pos.max(start + 1),
+                    ));
+                }
+                c.pos += 1;
+                let value = read_real_value(&mut c, params, 0, Some(b'#'))?;
+                assigns.push(Assign { index, value });
+            }
+            b'O' => {
+                return Err(c.error(
+                    ParseErrorKind::Unsupported {
+                        word: "O-word".into(),
+                        why: "subroutines and control flow (O-codes) are not supported",
+                    },
+                    start,
+                    c.buf.len(),
+                ))
+            }
+            b'A'..=b'Z' => {
+                c.pos += 1;
+                let value = read_real_value(&mut c, params, 0, Some(b))?;
+                words.push(Word {
+                    letter: b,
+                    value,
+                    start: c.src(start),
+                    end: c.src_end(c.pos),
+                });
+            }
+            _ => {
+                return Err(c.error(
+                    ParseErrorKind::UnexpectedChar {
+                        ch: first_char(&c.buf[start..]),
+                    },
+                    start,
+                    start + 1,
+                ))
+            }
+        }
+        // After a value, the next thing must start a word.
+        match c.peek() {
+            None | Some(b'#' | b'A'..=b'Z') => {}
+            Some(b'.' | b'0'..=b'9') => {
+                let mut s = c.pos;
+                while s > start && (c.buf[s - 1].is_ascii_digit() || c.buf[s - 1] == b'.') {
+                    s -= 1;
+                }
+                let mut e = c.pos;
+                while e < c.buf.len() && (c.buf[e].is_ascii_digit() || c.buf[e] == b'.') {
+                    e += 1;
+                }
+                return Err(c.error(ParseErrorKind::MalformedNumber, s, e));
+            }
+            Some(_) => {
+                return Err(c.error(
+                    ParseErrorKind::UnexpectedChar {
+                        ch: first_char(&c.buf[c.pos..]),
+                    },
+                    c.pos,
+                    c.pos + 1,
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The first character of `b` (lossy: U+FFFD for a broken sequence).
+pub(crate) fn first_char(b: &[u8]) -> char {
+    let n = b.len().min(4);
+    for k in (1..=n).rev() {
+        if let Ok(s) = std::str::from_utf8(&b[..k]) {
+            if let Some(ch) = s.chars().next() {
+                return ch;
+            }
+        }
+    }
+    char::REPLACEMENT_CHARACTER
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn compact(s: &str) -> Result<String, LexError> {
+        let mut lb = LineBuf::default();
+        compact_line(s.as_bytes(), 0, &mut lb)?;
+        Ok(String::from_utf8(lb.bytes).unwrap())
+    }
+
+    fn words(s: &str) -> Result<Vec<(char, f64)>, LexError> {
+        let mut lb = LineBuf::default();
+        compact_line(s.as_bytes(), 0, &mut lb)?;
+        let p = Params::default();
+        let mut w = Vec::new();
+        let mut a = Vec::new();
+        read_block(&lb, &p, &mut w, &mut a)?;
+        Ok(w.iter().map(|w| (w.letter as char, w.value)).collect())
+    }
+
+    #[test]
+    fn compaction() {
+        assert_eq!(compact("g 0 1 x 1 0 . 5\r").unwrap(), "G01X10.5");
+        assert_eq!(compact("G1 (a ; comment) X1 ; rest (").unwrap(), "G1X1");
+        assert_eq!(compact("  % anything").unwrap(), "");
+        assert_eq!(compact("/G0 X1").unwrap(), "G0X1");
+        assert_eq!(compact("\tN10 G0").unwrap(), "N10G0");
+        let e = compact("G1 (oops").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::UnclosedComment);
+        assert_eq!(e.start, 3);
+    }
+
+    #[test]
+    fn word_values_are_exact() {
+        assert_eq!(
+            words("G 0 1 X 1 0 . 5").unwrap(),
+            vec![('G', 1.0), ('X', 10.5)]
+        );
+        assert_eq!(
+            words("X1234.56789 Y-.5 Z+3.").unwrap(),
+            vec![
+                ('X', "1234.56789".parse().unwrap()),
+                ('Y', -0.5),
+                ('Z', 3.0)
+            ]
+        );
+        assert_eq!(words("G0Z  0.1000").unwrap(), vec![('G', 0.0), ('Z', 0.1)]);
+    }
+
+    #[test]
+    fn lexical_errors_with_spans() {
+        let e = words("G1 X1 Y").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::MissingValue { letter: 'Y' });
+        assert_eq!(e.start, 6);
+        let e = words("G1 X1..5").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::MalformedNumber);
+        assert_eq!((e.start, e.end), (4, 8));
+        let e = words("G1 X.").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::MalformedNumber);
+        let e = words("G1 X1 $").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::UnexpectedChar { ch: '$' });
+        assert_eq!(e.start, 6);
+        let e = words("G1 XY1").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::MissingValue { letter: 'X' });
+        let e = words("O100 sub").unwrap_err();
+        assert!(matches!(e.kind, ParseErrorKind::Unsupported { .. }));
+        let e = words("G1 X#<foo>").unwrap_err();
+        assert!(matches!(e.kind, ParseErrorKind::Unsupported { .. }));
+        let e = words("G1 Xé").unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::MissingValue { letter: 'X' });
+    }
+}

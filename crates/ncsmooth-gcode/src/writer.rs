@@ -1,0 +1,481 @@
+//! G-code writer: [`Toolpath`] to RS274/NGC text that this crate's parser, LinuxCNC and
+//! grbl read back as the same motion.
+//!
+//! Output format:
+//!
+//! * Optional header comment lines, then `G21 G90 G94 G17`: millimetres, absolute
+//!   coordinates, units-per-minute feed, XY plane; arc centres are incremental I/J/K (the
+//!   G91.1 default; `G91.1` itself is not written because grbl does not know it).
+//! * Lines as `G0`/`G1`. The motion word is written on every line; axis words only when
+//!   their formatted value changes (at least one axis is always written). `F` (mm/min) is
+//!   written when its formatted value changes.
+//! * Arcs whose normal is ±Z, ±Y or ±X (within 1e-9) as `G2`/`G3` in G17/G18/G19 (the
+//!   plane word is written when it changes), with both in-plane end coordinates, the axial
+//!   coordinate for helices, both centre offsets, and `P` for multi-turn arcs. Centre
+//!   offsets are taken from the *written* (rounded) start point and written with
+//!   [`CENTRE_EXTRA_DECIMALS`] more digits than the coordinates, so the centre the reader
+//!   computes is essentially exact. Arcs in other planes, arcs whose
+//!   radius is under two units of the last decimal, and arcs that rounding would turn into
+//!   a full circle are flattened to `G1` lines within `chord_mm` with
+//!   [`Flatten`]. So are all non-native segments (Béziers,
+//!   NURBS and any future kind); extra axes are interpolated along the pieces by length.
+//! * Events are written as their text, in order. An `M83` event is written as `M82`
+//!   (with a comment) because the writer always writes absolute E. After an event, extra
+//!   axes are rewritten on the next move (`G92 E0` may have reset them) and after an event
+//!   with an `F` word the feed is rewritten.
+//! * `G53` moves are written with `G53` and only the axes that the move changes (the
+//!   others are not in machine coordinates); the next move writes all its axes.
+//!
+//! Numbers use `decimals` digits after the point (default 4), trailing zeros removed,
+//! never exponent notation and never `-0`. With 4 decimals the rounding is up to 5e-5 mm;
+//! a round trip that must agree to 1e-6 mm needs 6 or more decimals (the round-trip
+//! property test uses 6). Fewer than 3 decimals can make a reader reject arcs whose
+//! rounded radii differ by more than its tolerance.
+
+use ncsmooth::geom::{Arc, Flatten, ParamCurve, Segment, Vec3};
+use ncsmooth::path::{Block, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
+use std::f64::consts::TAU;
+use std::fmt::{self, Write as _};
+
+/// Writer settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WriteOptions {
+    /// Digits after the decimal point (default 4).
+    pub decimals: usize,
+    /// Prefix every block with `N<k>` (default false).
+    pub line_numbers: bool,
+    /// Comment written at the top, one `( )` line per text line (parentheses in it are
+    /// replaced by brackets).
+    pub header: Option<String>,
+    /// Chord tolerance (mm) for flattening curves and off-axis arcs (default 0.001).
+    pub chord_mm: f64,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        WriteOptions {
+            decimals: 4,
+            line_numbers: false,
+            header: None,
+            chord_mm: 0.001,
+        }
+    }
+}
+
+/// Appends `v` with at most `decimals` digits after the point, without trailing zeros,
+/// never `-0` and never in exponent notation.
+pub fn push_fixed(s: &mut String, v: f64, decimals: usize) {
+    let start = s.len();
+    let _ = write!(s, "{:.*}", decimals, v);
+    if s[start..].contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    if &s[start..] == "-0" {
+        s.truncate(start);
+        s.push('0');
+    }
+}
+
+/// Writes `tp` as G-code text.
+pub fn write(tp: &Toolpath, opts: &WriteOptions) -> String {
+    let mut s = String::with_capacity(tp.blocks.len() * 32 + 64);
+    // Writing into a String cannot fail.
+    let _ = write_to(tp, opts, &mut s);
+    s
+}
+
+/// Writes `tp` as G-code text into `out`.
+pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) -> fmt::Result {
+    let mut w = Writer {
+        opts,
+        out,
+        n: 0,
+        line: String::with_capacity(128),
+        scratch: String::with_capacity(32),
+        last_axis: Default::default(),
+        axis_known: [false; 3],
+        written: tp.start,
+        last_extra: Default::default(),
+        extra_known: [false; 7],
+        extra_mask: tp.extra_axes_mask,
+        last_extra_val: [0.0; 7],
+        last_f: String::new(),
+        f_known: false,
+        plane: 17,
+        points: Vec::new(),
+    };
+    if let Some(h) = &opts.header {
+        for l in h.lines() {
+            let l: String = l
+                .chars()
+                .map(|c| match c {
+                    '(' => '[',
+                    ')' => ']',
+                    c => c,
+                })
+                .collect();
+            writeln!(w.out, "({l})")?;
+        }
+    }
+    w.begin();
+    w.line.push_str("G21 G90 G94 G17");
+    w.end()?;
+    for b in &tp.blocks {
+        match b {
+            Block::Event(e) => {
+                w.begin();
+                if e.text.trim() == "M83" {
+                    w.line
+                        .push_str("M82 (M83 in the source: the writer writes absolute E)");
+                } else {
+                    w.line.push_str(&e.text);
+                }
+                w.end()?;
+                w.extra_known = [false; 7];
+                if e.text.contains('F') {
+                    w.f_known = false;
+                }
+            }
+            Block::Move(m) => w.write_move(m)?,
+        }
+    }
+    Ok(())
+}
+
+struct Writer<'a, W: fmt::Write> {
+    opts: &'a WriteOptions,
+    out: &'a mut W,
+    n: u64,
+    line: String,
+    scratch: String,
+    last_axis: [String; 3],
+    axis_known: [bool; 3],
+    /// The last position written (unrounded; see `written_pos`).
+    written: Vec3,
+    last_extra: [String; 7],
+    extra_known: [bool; 7],
+    extra_mask: u8,
+    last_extra_val: [f64; 7],
+    last_f: String,
+    f_known: bool,
+    plane: u8,
+    points: Vec<Vec3>,
+}
+
+const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
+
+/// Extra digits for the I/J/K centre offsets: the reader's centre is then essentially
+/// exact relative to the rounded end points, so the arc between them deviates from the
+/// original by about the end-point rounding only (with the same digits as the
+/// coordinates, the centre rounding adds up to the same amount again, and arc midpoints
+/// of a 6-decimal round trip could move by up to 1.4e-6 mm).
+pub const CENTRE_EXTRA_DECIMALS: usize = 2;
+
+fn coord(v: Vec3, i: usize) -> f64 {
+    match i {
+        0 => v.x,
+        1 => v.y,
+        _ => v.z,
+    }
+}
+
+fn set_coord(v: &mut Vec3, i: usize, x: f64) {
+    match i {
+        0 => v.x = x,
+        1 => v.y = x,
+        _ => v.z = x,
+    }
+}
+
+impl<W: fmt::Write> Writer<'_, W> {
+    fn begin(&mut self) {
+        self.line.clear();
+        if self.opts.line_numbers {
+            self.n += 1;
+            let _ = write!(self.line, "N{} ", self.n);
+        }
+    }
+
+    fn end(&mut self) -> fmt::Result {
+        self.out.write_str(&self.line)?;
+        self.out.write_char('\n')
+    }
+
+    /// Formats `v` into the scratch buffer.
+    fn fmt(&mut self, v: f64) {
+        self.scratch.clear();
+        push_fixed(&mut self.scratch, v, self.opts.decimals);
+    }
+
+    /// Appends axis `i` = `v` when forced or changed; updates the written position.
+    fn axis(&mut self, i: usize, v: f64, force: bool) -> bool {
+        self.fmt(v);
+        if force || !self.axis_known[i] || self.scratch != self.last_axis[i] {
+            self.line.push(' ');
+            self.line.push(AXIS_LETTERS[i]);
+            self.line.push_str(&self.scratch);
+            std::mem::swap(&mut self.last_axis[i], &mut self.scratch);
+            self.axis_known[i] = true;
+            set_coord(&mut self.written, i, v);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The position the reader computes: the written (rounded) coordinates.
+    fn written_pos(&self) -> Vec3 {
+        let mut p = self.written;
+        for i in 0..3 {
+            if self.axis_known[i] {
+                if let Ok(v) = self.last_axis[i].parse() {
+                    set_coord(&mut p, i, v);
+                }
+            }
+        }
+        p
+    }
+
+    fn extras(&mut self, e: Option<&[f64; 7]>) {
+        let Some(e) = e else { return };
+        for i in 0..7 {
+            if self.extra_mask & (1 << i) == 0 {
+                continue;
+            }
+            self.fmt(e[i]);
+            if !self.extra_known[i] || self.scratch != self.last_extra[i] {
+                self.line.push(' ');
+                self.line.push(EXTRA_AXIS_NAMES[i]);
+                self.line.push_str(&self.scratch);
+                std::mem::swap(&mut self.last_extra[i], &mut self.scratch);
+                self.extra_known[i] = true;
+            }
+            self.last_extra_val[i] = e[i];
+        }
+    }
+
+    fn feed(&mut self, m: &Move) {
+        if m.kind != MoveKind::Feed {
+            return;
+        }
+        if let Some(f) = m.feed_mm_s {
+            self.fmt(f * 60.0);
+            if !self.f_known || self.scratch != self.last_f {
+                self.line.push_str(" F");
+                self.line.push_str(&self.scratch);
+                std::mem::swap(&mut self.last_f, &mut self.scratch);
+                self.f_known = true;
+            }
+        }
+    }
+
+    fn motion_word(m: &Move) -> &'static str {
+        if m.kind == MoveKind::Rapid {
+            "G0"
+        } else {
+            "G1"
+        }
+    }
+
+    fn linear(&mut self, m: &Move, p: Vec3, extra: Option<&[f64; 7]>) -> fmt::Result {
+        self.begin();
+        self.line.push_str(Self::motion_word(m));
+        let mut any = false;
+        for i in 0..3 {
+            any |= self.axis(i, coord(p, i), false);
+        }
+        if !any {
+            // A move must carry an axis word; repeat X.
+            self.axis(0, p.x, true);
+        }
+        self.extras(extra);
+        self.feed(m);
+        self.end()
+    }
+
+    fn write_move(&mut self, m: &Move) -> fmt::Result {
+        if m.machine_coords {
+            return self.g53(m);
+        }
+        match &m.segment {
+            Segment::Line(l) => self.linear(m, l.p1, m.extra.as_ref()),
+            Segment::Arc(a) => {
+                if !self.try_arc(m, a)? {
+                    self.flattened(m)?;
+                }
+                Ok(())
+            }
+            _ => self.flattened(m),
+        }
+    }
+
+    fn g53(&mut self, m: &Move) -> fmt::Result {
+        let (s, e) = (m.segment.start(), m.segment.end());
+        self.begin();
+        self.line.push_str("G53 ");
+        self.line.push_str(Self::motion_word(m));
+        let mut any = false;
+        for i in 0..3 {
+            if coord(s, i) != coord(e, i) {
+                self.axis(i, coord(e, i), true);
+                any = true;
+            }
+        }
+        if !any {
+            self.line.clear();
+            self.line
+                .push_str("(zero-length G53 move omitted: machine position unknown)");
+        } else {
+            self.extras(m.extra.as_ref());
+            self.feed(m);
+        }
+        self.end()?;
+        // The axes not written are where the machine is, which is not known in work
+        // coordinates: write every axis on the next move.
+        self.axis_known = [false; 3];
+        self.written = e;
+        Ok(())
+    }
+
+    /// Writes a native arc; false when it must be flattened instead.
+    fn try_arc(&mut self, m: &Move, a: &Arc) -> Result<bool, fmt::Error> {
+        let n = a.normal();
+        let close = |v: Vec3| (n - v).norm() <= 1e-9;
+        // (plane code, first axis, second axis, normal axis, G3?)
+        let (plane, i0, i1, ccw) = if close(Vec3::Z) {
+            (17u8, 0, 1, true)
+        } else if close(-Vec3::Z) {
+            (17, 0, 1, false)
+        } else if close(Vec3::Y) {
+            (18, 2, 0, true)
+        } else if close(-Vec3::Y) {
+            (18, 2, 0, false)
+        } else if close(Vec3::X) {
+            (19, 1, 2, true)
+        } else if close(-Vec3::X) {
+            (19, 1, 2, false)
+        } else {
+            return Ok(false);
+        };
+        let unit = 0.1f64.powi(self.opts.decimals.min(300) as i32);
+        if a.radius.is_nan() || a.radius < 2.0 * unit || !a.sweep.is_finite() || a.sweep <= 0.0 {
+            return Ok(false);
+        }
+        let normal_axis = 3 - i0 - i1;
+        let turns = ((a.sweep / TAU) - 1e-9).ceil().max(1.0);
+        if turns > 10_000.0 {
+            return Ok(false);
+        }
+        let full = (a.sweep - turns * TAU).abs() <= 1e-9 * turns;
+        let mut end = a.eval(1.0);
+        let start_written = self.written_pos();
+        if full {
+            // End exactly where the reader's start is, in the plane.
+            set_coord(&mut end, i0, coord(start_written, i0));
+            set_coord(&mut end, i1, coord(start_written, i1));
+        } else {
+            // Would rounding make start and end coincide (a full circle for the reader)?
+            self.fmt(coord(end, i0));
+            let e0: f64 = self.scratch.parse().unwrap_or(f64::NAN);
+            self.fmt(coord(end, i1));
+            let e1: f64 = self.scratch.parse().unwrap_or(f64::NAN);
+            if e0 == coord(start_written, i0) && e1 == coord(start_written, i1) {
+                return Ok(false);
+            }
+        }
+        self.begin();
+        if plane != self.plane {
+            let _ = write!(self.line, "G{plane} ");
+            self.plane = plane;
+        }
+        self.line.push_str(if ccw { "G3" } else { "G2" });
+        for i in 0..3 {
+            let force = i != normal_axis || !self.axis_known[i];
+            self.axis(i, coord(end, i), force);
+        }
+        const CENTRE: [char; 3] = ['I', 'J', 'K'];
+        for i in [0, 1, 2] {
+            if i == normal_axis {
+                continue;
+            }
+            self.scratch.clear();
+            push_fixed(
+                &mut self.scratch,
+                coord(a.center, i) - coord(start_written, i),
+                self.opts.decimals + CENTRE_EXTRA_DECIMALS,
+            );
+            self.line.push(' ');
+            self.line.push(CENTRE[i]);
+            self.line.push_str(&self.scratch);
+        }
+        if turns > 1.0 {
+            let _ = write!(self.line, " P{}", turns as u64);
+        }
+        self.extras(m.extra.as_ref());
+        self.feed(m);
+        self.end()?;
+        Ok(true)
+    }
+
+    fn flattened(&mut self, m: &Move) -> fmt::Result {
+        let mut pts = std::mem::take(&mut self.points);
+        pts.clear();
+        let start = m.segment.start();
+        pts.push(start);
+        let chord = if self.opts.chord_mm > 0.0 {
+            self.opts.chord_mm
+        } else {
+            0.001
+        };
+        m.segment.flatten(chord, &mut |p| pts.push(p));
+        // Extra axes: interpolate from the previous values by cumulative chord length.
+        let total: f64 = pts.windows(2).map(|w| w[0].dist(w[1])).sum();
+        let e0 = self.last_extra_val;
+        let mut acc = 0.0;
+        let mut r = Ok(());
+        for k in 1..pts.len() {
+            acc += pts[k - 1].dist(pts[k]);
+            let extra = m.extra.map(|e1| {
+                if k + 1 == pts.len() || total <= 0.0 {
+                    e1
+                } else {
+                    let t = acc / total;
+                    std::array::from_fn(|i| e0[i] + (e1[i] - e0[i]) * t)
+                }
+            });
+            r = self.linear(m, pts[k], extra.as_ref());
+            if r.is_err() {
+                break;
+            }
+        }
+        self.points = pts;
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers() {
+        let f = |v: f64, d: usize| {
+            let mut s = String::new();
+            push_fixed(&mut s, v, d);
+            s
+        };
+        assert_eq!(f(1.5, 4), "1.5");
+        assert_eq!(f(-0.00001, 4), "0");
+        assert_eq!(f(-0.0, 4), "0");
+        assert_eq!(f(10.0, 4), "10");
+        assert_eq!(f(100.0, 0), "100");
+        assert_eq!(f(1e20, 2), "100000000000000000000");
+        assert_eq!(f(-2.25, 1), "-2.2");
+        assert_eq!(f(1234.56789, 6), "1234.56789");
+    }
+}
