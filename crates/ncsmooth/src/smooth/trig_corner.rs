@@ -145,12 +145,12 @@ const LOOP_LAMBDA_STEP: f64 = 0.1;
 /// `lambda` of inside transitions (see module doc).
 pub const ROUND_LAMBDA: f64 = 1.0;
 /// Samples of a unit-scale shape measurement (before refinement).
-const SHAPE_SAMPLES: usize = 128;
+const SHAPE_SAMPLES: usize = 64;
 /// Samples used while building the tables (choice of shape only; safety comes from the
 /// per-corner measurement with [`SHAPE_SAMPLES`] and refinement).
 const TABLE_SAMPLES: usize = 64;
 /// Golden-section iterations (interval shrinks by 0.618 each).
-const GOLDEN_ITERS: usize = 40;
+const GOLDEN_ITERS: usize = 32;
 /// Bracket of the `rho` search, as multiples of the arc's tangent length `beta/tan(beta/2)`.
 const RHO_BRACKET: (f64, f64) = (0.4, 2.2);
 /// Relative slack on the curvature sign when deciding whether a shape inflects.
@@ -246,9 +246,15 @@ pub fn round_shape(beta: f64, rho: f64) -> RoundShape {
     round_shape_n(beta, rho, SHAPE_SAMPLES, true)
 }
 
-fn round_shape_n(beta: f64, rho: f64, n: usize, refine: bool) -> RoundShape {
+/// Two-sided deviation of the inside transition at `d = 1` (see [`RoundShape::deviation`]):
+/// the per-corner measurement, without the curvature.
+pub fn round_deviation(beta: f64, rho: f64) -> f64 {
     let c = round_unit_curve(beta, rho);
     let b = plane_dir(beta);
+    round_deviation_of(&c, b, SHAPE_SAMPLES, true)
+}
+
+fn round_deviation_of(c: &TrigSpline, b: Vec3, n: usize, refine: bool) -> f64 {
     let leg_a = Line::new(-Vec3::X, Vec3::ZERO);
     let leg_b = Line::new(Vec3::ZERO, b);
     let near = |u: f64| -c.eval(u).norm();
@@ -258,13 +264,20 @@ fn round_shape_n(beta: f64, rho: f64, n: usize, refine: bool) -> RoundShape {
     };
     let f = -sampled_max(&near, n, refine);
     let g = sampled_max(&off, n, refine);
+    f.max(g)
+}
+
+fn round_shape_n(beta: f64, rho: f64, n: usize, refine: bool) -> RoundShape {
+    let c = round_unit_curve(beta, rho);
+    let b = plane_dir(beta);
+    let deviation = round_deviation_of(&c, b, n, refine);
     let curv = |u: f64| signed_curvature(&c, u);
     let kmax = sampled_max(&curv, n, refine);
     let kmin = -sampled_max(&|u| -curv(u), n, false);
     RoundShape {
         beta,
         rho,
-        deviation: f.max(g),
+        deviation,
         peak_curvature: kmax.max(-kmin),
         inflects: kmin < -INFLECTION_SLACK * kmax.abs(),
     }
@@ -409,7 +422,13 @@ pub fn inside_transition(
 ) -> Option<(TrigSpline, f64)> {
     let beta = a.angle_to(b);
     let rho = round_rho(beta);
-    let sh = round_shape(beta, rho);
+    let sh = RoundShape {
+        beta,
+        rho,
+        deviation: round_deviation(beta, rho),
+        peak_curvature: f64::NAN,
+        inflects: false,
+    };
     inside_transition_with(v, a, b, &sh, tol_mm, d_max)
 }
 
@@ -629,7 +648,15 @@ fn smooth_lines(
             }
         }
         let _ = j;
-        Kind::Round(round_shape(beta, round_rho(beta)))
+        let rho = round_rho(beta);
+        Kind::Round(RoundShape {
+            beta,
+            rho,
+            deviation: round_deviation(beta, rho),
+            // Not needed to place the transition (see `round_shape` for it).
+            peak_curvature: f64::NAN,
+            inflects: false,
+        })
     };
     for j in 1..legs {
         let (a, b) = (poly.dir[j - 1], poly.dir[j]);
