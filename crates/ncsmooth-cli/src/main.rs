@@ -1,1 +1,101 @@
-fn main() {}
+//! `ncsmooth`: CNC toolpath smoothing, feed planning and interpolation from the command line.
+//!
+//! Every subcommand takes an input file or `-` for stdin, writes its outputs atomically,
+//! and exits with 0 on success, 2 on bad input (a parse error is printed as a rustc-style
+//! snippet naming file, line and column) and 1 on an internal error. Lengths are in mm,
+//! speeds in mm/s, accelerations in mm/s^2, jerks in mm/s^3, times in s.
+#![forbid(unsafe_code)]
+
+mod cmd_inspect;
+mod cmd_smooth;
+mod demo;
+mod diag;
+mod io;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// CNC toolpath smoothing, feed planning and interpolation.
+///
+/// Run without arguments for the demo on the built-in butterfly profile.
+#[derive(Parser, Debug)]
+#[command(name = "ncsmooth", version, about, long_about = None)]
+struct Cli {
+    /// Print nothing but errors.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    #[command(subcommand)]
+    cmd: Option<Cmd>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Describe a G-code program: units, planes, moves by kind, lengths (mm), segment-length
+    /// percentiles (mm), corner angles (deg), bounding box (mm), warnings.
+    Inspect(cmd_inspect::InspectArgs),
+    /// Smooth a program within a two-sided tolerance and write G-code.
+    Smooth(cmd_smooth::SmoothArgs),
+    /// Run the demo on the built-in butterfly profile and write its report (the default).
+    Demo(demo::DemoArgs),
+}
+
+/// Output verbosity shared by the subcommands.
+#[derive(Clone, Copy, Debug)]
+pub struct Ui {
+    /// Suppress progress and summaries.
+    pub quiet: bool,
+}
+
+impl Ui {
+    /// Prints a status line to stderr unless quiet.
+    pub fn status(&self, msg: impl AsRef<str>) {
+        if !self.quiet {
+            eprintln!("{}", msg.as_ref());
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    let ui = Ui { quiet: cli.quiet };
+    match cli.cmd {
+        Some(Cmd::Inspect(a)) => cmd_inspect::run(a, ui),
+        Some(Cmd::Smooth(a)) => cmd_smooth::run(a, ui),
+        Some(Cmd::Demo(a)) => demo::run(a, ui),
+        None => demo::run(demo::DemoArgs::default(), ui),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            if e.downcast_ref::<io::BadInput>().is_some()
+                || e.downcast_ref::<ncsmooth_gcode::ParseError>().is_some()
+            {
+                // Parse errors were already rendered with their snippet.
+                if e.downcast_ref::<ncsmooth_gcode::ParseError>().is_none() {
+                    eprintln!("error: {e:#}");
+                }
+                ExitCode::from(2)
+            } else {
+                eprintln!("internal error: {e:#}");
+                ExitCode::from(1)
+            }
+        }
+    }
+}
+
+/// Reads and parses an input; parse errors are rendered to stderr and returned.
+pub fn load(path: &str) -> Result<ncsmooth_gcode::Program> {
+    let src = io::read_input(path)?;
+    let name = io::display_name(path);
+    match ncsmooth_gcode::parse_bytes(&src, name, &ncsmooth_gcode::ParseOptions::default()) {
+        Ok(p) => Ok(p),
+        Err(err) => {
+            diag::report_parse_error(&err, &src);
+            Err(err.into())
+        }
+    }
+}

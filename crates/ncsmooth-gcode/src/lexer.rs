@@ -143,12 +143,20 @@ impl Cursor<'_> {
         self.buf[self.pos..].starts_with(kw)
     }
     /// Reads `digits[.digits]` or `.digits` at the cursor.
+    ///
+    /// Fast path (Clinger): with at most 15 significant digits the digits form an integer
+    /// `m < 2^53` and the value is `m / 10^k` with `k <= 22`, both exactly representable,
+    /// so one correctly rounded division gives exactly what `str::parse::<f64>` gives.
+    /// Anything longer goes through `str::parse`.
     pub fn read_number(&mut self) -> Result<f64, LexError> {
         let start = self.pos;
-        let mut digits = 0;
+        let mut digits = 0u32;
+        let mut mantissa = 0u64;
+        let mut frac_digits = 0i32;
         while let Some(b) = self.peek() {
             if b.is_ascii_digit() {
                 digits += 1;
+                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
                 self.pos += 1;
             } else {
                 break;
@@ -159,11 +167,20 @@ impl Cursor<'_> {
             while let Some(b) = self.peek() {
                 if b.is_ascii_digit() {
                     digits += 1;
+                    frac_digits += 1;
+                    mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
                     self.pos += 1;
                 } else {
                     break;
                 }
             }
+        }
+        const POW10: [f64; 23] = [
+            1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+            1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+        ];
+        if digits > 0 && digits <= 15 && self.peek() != Some(b'.') {
+            return Ok(mantissa as f64 / POW10[frac_digits as usize]);
         }
         let bad = |c: &Cursor<'_>| {
             let mut end = c.pos;
@@ -369,6 +386,44 @@ mod tests {
             ]
         );
         assert_eq!(words("G0Z  0.1000").unwrap(), vec![('G', 0.0), ('Z', 0.1)]);
+    }
+
+    #[test]
+    fn fast_number_path_matches_str_parse() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..20_000 {
+            let int = next() % 10u64.pow((next() % 10) as u32);
+            let nfrac = (next() % 12) as usize;
+            let frac: String = (0..nfrac)
+                .map(|_| (b'0' + (next() % 10) as u8) as char)
+                .collect();
+            let text = if nfrac == 0 {
+                format!("{int}")
+            } else {
+                format!("{int}.{frac}")
+            };
+            let w = words(&format!("X{text}")).unwrap();
+            assert_eq!(w[0].1, text.parse::<f64>().unwrap(), "{text}");
+        }
+        for text in [
+            "0.1",
+            ".3",
+            "3.",
+            "123456789012345",
+            "1234567890123456",
+            "0.000000000000000000001",
+            "9007199254740993",
+            "00000000000000000000001.5",
+        ] {
+            let w = words(&format!("X{text}")).unwrap();
+            assert_eq!(w[0].1, text.parse::<f64>().unwrap(), "{text}");
+        }
     }
 
     #[test]

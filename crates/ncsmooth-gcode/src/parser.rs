@@ -61,7 +61,8 @@
 //! * `G28`/`G30` (with or without axis words) and `G28.1`/`G30.1` are kept as events.
 //!   `G28`/`G30` move the machine home, after which the real position is unknown to the
 //!   parser: it warns and keeps the position unchanged, so the next move starts from the
-//!   last programmed point.
+//!   last programmed point. The event text carries the axis words as programmed
+//!   (converted to mm); their intermediate-point meaning is not interpreted.
 //! * `G92` with only `E` (slicer `G92 E0`) resets the E axis and is an event. `G92` on any
 //!   other axis, and `G92.1`..`G92.3`, `G52`, `G10`, are unsupported: they shift the
 //!   coordinate system under the program.

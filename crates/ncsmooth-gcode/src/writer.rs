@@ -64,7 +64,58 @@ impl Default for WriteOptions {
 
 /// Appends `v` with at most `decimals` digits after the point, without trailing zeros,
 /// never `-0` and never in exponent notation.
+///
+/// Fast path (the writer formats millions of numbers, and `{:.N}` falls back to exact
+/// big-number arithmetic for most of them): when `|v| 10^decimals < 9e15`, the value is
+/// scaled, rounded half away from zero to an integer and printed with the point
+/// inserted. The scaling itself rounds, so a value within one ulp of a tie may round
+/// the other way than exact decimal rounding would: the printed value is still within
+/// half a unit of the last digit (plus an ulp) of `v`. Other values use `{:.N}`.
 pub fn push_fixed(s: &mut String, v: f64, decimals: usize) {
+    const POW10: [u64; 16] = [
+        1,
+        10,
+        100,
+        1_000,
+        10_000,
+        100_000,
+        1_000_000,
+        10_000_000,
+        100_000_000,
+        1_000_000_000,
+        10_000_000_000,
+        100_000_000_000,
+        1_000_000_000_000,
+        10_000_000_000_000,
+        100_000_000_000_000,
+        1_000_000_000_000_000,
+    ];
+    if decimals < POW10.len() && v.is_finite() {
+        let p = POW10[decimals];
+        let x = (v * p as f64).round();
+        if x.abs() < 9.0e15 {
+            let r = x as i64;
+            if r == 0 {
+                s.push('0');
+                return;
+            }
+            if r < 0 {
+                s.push('-');
+            }
+            let u = r.unsigned_abs();
+            let (int, mut frac) = (u / p, u % p);
+            let _ = write!(s, "{int}");
+            if frac != 0 {
+                let mut width = decimals;
+                while frac % 10 == 0 {
+                    frac /= 10;
+                    width -= 1;
+                }
+                let _ = write!(s, ".{frac:0width$}");
+            }
+            return;
+        }
+    }
     let start = s.len();
     let _ = write!(s, "{:.*}", decimals, v);
     if s[start..].contains('.') {
@@ -475,7 +526,25 @@ mod tests {
         assert_eq!(f(10.0, 4), "10");
         assert_eq!(f(100.0, 0), "100");
         assert_eq!(f(1e20, 2), "100000000000000000000");
-        assert_eq!(f(-2.25, 1), "-2.2");
+        assert_eq!(f(-2.25, 1), "-2.3"); // ties away from zero
         assert_eq!(f(1234.56789, 6), "1234.56789");
+        assert_eq!(f(0.05, 4), "0.05");
+        assert_eq!(f(-0.000123, 6), "-0.000123");
+        assert_eq!(f(3.0001, 4), "3.0001");
+        assert_eq!(f(1e300, 4).len(), 301); // slow path, no exponent
+        assert_eq!(f(-1e300, 2).chars().next(), Some('-'));
+        // Agrees with exact formatting away from ties.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..10_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let v = (state % 2_000_000_000) as f64 / 1e4 - 1e5 + 0.123_456_789;
+            let mut exact = format!("{v:.4}");
+            while exact.contains('.') && (exact.ends_with('0') || exact.ends_with('.')) {
+                exact.pop();
+            }
+            assert_eq!(f(v, 4), exact);
+        }
     }
 }

@@ -268,3 +268,39 @@ fn profiles_parse() {
     }
     assert_eq!(n, 4);
 }
+
+#[test]
+fn real_files_survive_write_and_reparse() {
+    let Some(dir) = data_dir("gcode") else { return };
+    let opts = ncsmooth_gcode::WriteOptions {
+        decimals: 6,
+        ..Default::default()
+    };
+    for e in &EXPECT {
+        let a = parse_file(&dir.join(e.file)).toolpath;
+        let text = ncsmooth_gcode::write(&a, &opts);
+        let b = match ncsmooth_gcode::parse_str(&text, e.file, &ParseOptions::default()) {
+            Ok(p) => p.toolpath,
+            Err(err) => panic!("{}: written text does not parse: {err}", e.file),
+        };
+        assert_eq!(a.blocks.len(), b.blocks.len(), "{}", e.file);
+        let mut worst: f64 = 0.0;
+        for (x, y) in a.moves().zip(b.moves()) {
+            assert_eq!(
+                x.segment.kind_name(),
+                y.segment.kind_name(),
+                "{} line {}",
+                e.file,
+                x.line
+            );
+            assert_eq!(x.kind, y.kind);
+            for t in [0.0, 0.5, 1.0] {
+                worst = worst.max(x.segment.eval(t).dist(y.segment.eval(t)));
+            }
+        }
+        assert!(worst <= 1e-6, "{}: worst deviation {worst} mm", e.file);
+        let ev_a: Vec<_> = a.events().map(|e| &e.text).collect();
+        let ev_b: Vec<_> = b.events().map(|e| &e.text).collect();
+        assert_eq!(ev_a, ev_b, "{}", e.file);
+    }
+}

@@ -1,0 +1,134 @@
+//! `ncsmooth inspect`: what a program contains.
+
+use crate::{io, load, Ui};
+use anyhow::Result;
+use clap::Args;
+use ncsmooth::stats::PathStats;
+use serde::Serialize;
+
+/// Arguments of `inspect`.
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// G-code file, or `-` for stdin.
+    pub file: String,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The inspect report (also used by the demo).
+#[derive(Serialize, Debug)]
+pub struct InspectReport {
+    /// Input name.
+    pub file: String,
+    /// Bytes read.
+    pub bytes: usize,
+    /// Physical lines.
+    pub lines: usize,
+    /// Units seen, in order (all geometry below is in mm).
+    pub units_seen: Vec<String>,
+    /// Arc planes seen, in order.
+    pub planes_seen: Vec<String>,
+    /// Motion blocks by G code as programmed.
+    pub moves_by_code: MovesByCode,
+    /// Geometry statistics (mm, degrees).
+    pub path: PathStats,
+    /// Parser warnings.
+    pub warnings: Vec<String>,
+}
+
+/// Motion counts by programmed code.
+#[derive(Serialize, Debug)]
+pub struct MovesByCode {
+    /// G0.
+    pub g0: usize,
+    /// G1.
+    pub g1: usize,
+    /// G2.
+    pub g2: usize,
+    /// G3.
+    pub g3: usize,
+}
+
+/// Builds the report of a parsed program.
+pub fn report(name: &str, p: &ncsmooth_gcode::Program) -> InspectReport {
+    let s = &p.stats;
+    InspectReport {
+        file: name.to_string(),
+        bytes: s.bytes,
+        lines: s.lines,
+        units_seen: s.units_seen.iter().map(|u| format!("{u:?}")).collect(),
+        planes_seen: s.planes_seen.iter().map(|p| format!("{p:?}")).collect(),
+        moves_by_code: MovesByCode {
+            g0: s.g0,
+            g1: s.g1,
+            g2: s.g2,
+            g3: s.g3,
+        },
+        path: PathStats::of(&p.toolpath),
+        warnings: s.warnings.iter().map(|w| w.to_string()).collect(),
+    }
+}
+
+/// Human-readable rendering.
+pub fn render_text(r: &InspectReport) -> String {
+    use std::fmt::Write;
+    let mut o = String::new();
+    let p = &r.path;
+    let _ = writeln!(o, "{}: {} bytes, {} lines", r.file, r.bytes, r.lines);
+    let _ = writeln!(
+        o,
+        "units: {} (geometry below in mm)   planes: {}",
+        r.units_seen.join(", "),
+        r.planes_seen.join(", ")
+    );
+    let m = &r.moves_by_code;
+    let _ = writeln!(
+        o,
+        "moves: G0 {}  G1 {}  G2 {}  G3 {}  events {}",
+        m.g0, m.g1, m.g2, m.g3, p.events
+    );
+    let _ = writeln!(
+        o,
+        "lengths: feed {:.3} mm, rapid {:.3} mm, zero-length feed moves {}",
+        p.feed_length_mm, p.rapid_length_mm, p.zero_length_moves
+    );
+    let l = &p.feed_segment_length_mm;
+    let _ = writeln!(
+        o,
+        "feed segment length (mm): min {:.6}  p10 {:.6}  median {:.6}  p90 {:.6}  max {:.6}",
+        l.min, l.p10, l.median, l.p90, l.max
+    );
+    let _ = writeln!(o, "corner angles (deg):");
+    for b in &p.corner_angles {
+        let _ = writeln!(o, "  [{:>6.2}, {:>6.2})  {}", b.from_deg, b.to_deg, b.count);
+    }
+    if let Some(b) = p.bbox {
+        let _ = writeln!(
+            o,
+            "bounding box (mm): X {:.4} .. {:.4}  Y {:.4} .. {:.4}  Z {:.4} .. {:.4}",
+            b.min.x, b.max.x, b.min.y, b.max.y, b.min.z, b.max.z
+        );
+    }
+    if !r.warnings.is_empty() {
+        let _ = writeln!(o, "warnings: {}", r.warnings.len());
+        for w in r.warnings.iter().take(20) {
+            let _ = writeln!(o, "  {w}");
+        }
+        if r.warnings.len() > 20 {
+            let _ = writeln!(o, "  ... {} more", r.warnings.len() - 20);
+        }
+    }
+    o
+}
+
+/// Runs `inspect`.
+pub fn run(a: InspectArgs, _ui: Ui) -> Result<()> {
+    let p = load(&a.file)?;
+    let r = report(io::display_name(&a.file), &p);
+    if a.json {
+        io::print_stdout(&(serde_json::to_string_pretty(&r)? + "\n"))
+    } else {
+        io::print_stdout(&render_text(&r))
+    }
+}

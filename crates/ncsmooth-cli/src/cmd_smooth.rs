@@ -1,0 +1,243 @@
+//! `ncsmooth smooth`: smooth a program within a two-sided tolerance, verify the result and
+//! write G-code (plus an optional JSON report).
+//!
+//! The written file honours `--tol`: curves that G-code cannot carry are built to
+//! `tol - chord` and then flattened into G1 lines within `chord` (default `tol / 10`), so the
+//! flattened output is within `tol` of the program. The written path is measured with
+//! [`ncsmooth::verify::deviation`] before anything is written; a violation is an internal
+//! error (exit 1) and no file is written.
+
+use crate::{io, load, Ui};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
+use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Share of the tolerance used as the default flattening chord error.
+pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
+/// Accuracy of the verification, as a share of the tolerance.
+pub const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
+
+/// Smoothing method names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// No smoothing (the program as written).
+    None,
+    /// Cubic B-spline corner transitions in a tolerance band (Guo et al.).
+    Bspline,
+    /// Circular-arc corner transitions (Wu et al.).
+    Arc,
+    /// NURBS fitting of micro-line runs plus arc corners (Wu et al.).
+    Nurbs,
+    /// Cubic trigonometric spline (Tao et al.).
+    Trig,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Method {
+        match m {
+            MethodArg::None => Method::None,
+            MethodArg::Bspline => Method::Bspline,
+            MethodArg::Arc => Method::Arc,
+            MethodArg::Nurbs => Method::Nurbs,
+            MethodArg::Trig => Method::Trig,
+        }
+    }
+}
+
+/// Arguments of `smooth`.
+#[derive(Args, Debug)]
+pub struct SmoothArgs {
+    /// G-code file, or `-` for stdin.
+    pub file: String,
+    /// Smoothing method.
+    #[arg(long, value_enum, default_value = "bspline")]
+    pub method: MethodArg,
+    /// Two-sided tolerance (mm): output within tol of the program, program vertices within
+    /// tol of the output.
+    #[arg(long, default_value_t = 0.01)]
+    pub tol: f64,
+    /// Output G-code file (`-` for stdout).
+    #[arg(long, short)]
+    pub output: PathBuf,
+    /// JSON report file.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Chord error (mm) when flattening curves into G1 lines [default: tol / 10].
+    #[arg(long)]
+    pub chord: Option<f64>,
+    /// Decimals of the written coordinates.
+    #[arg(long, default_value_t = 4)]
+    pub decimals: usize,
+    /// Junctions turning less than this (degrees) pass through unchanged.
+    #[arg(long, default_value_t = ncsmooth::verify::TANGENT_TOL_DEG)]
+    pub straight_angle: f64,
+}
+
+/// Seconds spent per stage.
+#[derive(Serialize, Debug, Default)]
+pub struct Timings {
+    /// Parsing.
+    pub parse_s: f64,
+    /// Smoothing.
+    pub smooth_s: f64,
+    /// Flattening and writing G-code text.
+    pub write_s: f64,
+    /// Verification.
+    pub verify_s: f64,
+}
+
+/// The JSON report of `smooth`.
+#[derive(Serialize, Debug)]
+pub struct SmoothRunReport {
+    /// Input name.
+    pub input: String,
+    /// Tolerance asked for (mm).
+    pub tol_mm: f64,
+    /// Tolerance the curves were built to (mm): `tol - chord`.
+    pub curve_tol_mm: f64,
+    /// Flattening chord error (mm).
+    pub chord_mm: f64,
+    /// What the method did.
+    pub smoothing: SmoothReport,
+    /// Measured two-sided deviation of the written path from the program.
+    pub deviation: Deviation,
+    /// Continuity of the smoothed path (before flattening).
+    pub continuity: Continuity,
+    /// Continuity of the input program.
+    pub input_continuity: Continuity,
+    /// True when the written path is within tol.
+    pub within_tol: bool,
+    /// Seconds per stage.
+    pub timings: Timings,
+}
+
+/// Result of [`smooth_program`]: the written text and the report.
+pub struct SmoothOutcome {
+    /// G-code text.
+    pub gcode: String,
+    /// Report.
+    pub report: SmoothRunReport,
+}
+
+/// Smooths, flattens, writes and verifies a parsed program (shared with the demo).
+pub fn smooth_program(
+    name: &str,
+    program: &ncsmooth_gcode::Program,
+    method: Method,
+    tol: f64,
+    chord: Option<f64>,
+    decimals: usize,
+    straight_angle: f64,
+) -> Result<SmoothOutcome> {
+    let chord = chord.unwrap_or(tol * DEFAULT_CHORD_SHARE);
+    if !(tol > 0.0 && tol.is_finite()) {
+        return Err(
+            io::BadInput(format!("--tol must be a positive length in mm, got {tol}")).into(),
+        );
+    }
+    if !(chord > 0.0 && chord < tol) {
+        return Err(io::BadInput(format!("--chord must be in (0, tol), got {chord}")).into());
+    }
+    let curve_tol = if method == Method::None {
+        tol
+    } else {
+        tol - chord
+    };
+    // Method-specific option structs keep their defaults here.
+    #[allow(clippy::needless_update)]
+    let opts = SmoothOptions {
+        method,
+        tol_mm: curve_tol,
+        straight_angle_deg: straight_angle,
+        ..Default::default()
+    };
+    let mut t = Timings::default();
+    let t0 = Instant::now();
+    let smoothed = smooth(&program.toolpath, &opts).map_err(|e| io::BadInput(e.to_string()))?;
+    t.smooth_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let flat = smoothed.toolpath.flattened(chord);
+    let wopts = ncsmooth_gcode::WriteOptions {
+        decimals,
+        chord_mm: chord,
+        header: Some(format!(
+            "ncsmooth {} --method {} --tol {tol} (from {name})",
+            env!("CARGO_PKG_VERSION"),
+            method.name()
+        )),
+        ..Default::default()
+    };
+    let gcode = ncsmooth_gcode::write(&flat, &wopts);
+    t.write_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let dev = deviation(&flat, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
+    let cont = continuity(&smoothed.toolpath);
+    let input_cont = continuity(&program.toolpath);
+    t.verify_s = t0.elapsed().as_secs_f64();
+    let report = SmoothRunReport {
+        input: name.to_string(),
+        tol_mm: tol,
+        curve_tol_mm: curve_tol,
+        chord_mm: chord,
+        smoothing: smoothed.report,
+        within_tol: dev.within(tol),
+        deviation: dev,
+        continuity: cont,
+        input_continuity: input_cont,
+        timings: t,
+    };
+    Ok(SmoothOutcome { gcode, report })
+}
+
+/// Runs `smooth`.
+pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
+    let t0 = Instant::now();
+    let program = load(&a.file)?;
+    let parse_s = t0.elapsed().as_secs_f64();
+    let name = io::display_name(&a.file);
+    let mut out = smooth_program(
+        name,
+        &program,
+        a.method.into(),
+        a.tol,
+        a.chord,
+        a.decimals,
+        a.straight_angle,
+    )?;
+    out.report.timings.parse_s = parse_s;
+    let r = &out.report;
+    if !r.within_tol {
+        bail!(
+            "verification failed: deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) exceeds tol {} mm; nothing written",
+            r.deviation.output_to_programmed_mm,
+            r.deviation.output_line,
+            r.deviation.vertex_to_output_mm,
+            r.deviation.vertex_line,
+            a.tol
+        );
+    }
+    let json = serde_json::to_string_pretty(r)?;
+    io::write_atomic(&a.output, out.gcode.as_bytes())?;
+    if let Some(rp) = &a.report {
+        io::write_atomic(rp, json.as_bytes())?;
+    }
+    let s = &r.smoothing;
+    ui.status(format!(
+        "{name}: {} corners smoothed, {} straight, {} stopped; deviation {:.6} / {:.6} mm (tol {} mm); G2 joints {}, G1 {}, G0 {}; {:.3} s",
+        s.corners_smoothed,
+        s.corners_straight,
+        s.corners_stopped,
+        r.deviation.output_to_programmed_mm,
+        r.deviation.vertex_to_output_mm,
+        a.tol,
+        r.continuity.g2,
+        r.continuity.g1,
+        r.continuity.g0,
+        t0.elapsed().as_secs_f64()
+    ));
+    Ok(())
+}

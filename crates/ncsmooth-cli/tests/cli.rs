@@ -1,0 +1,174 @@
+//! End-to-end tests of the `ncsmooth` binary: exit codes, error locations, atomic outputs,
+//! stdin input, the demo.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ncsmooth"))
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ncsmooth-cli-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(dir: &Path, name: &str, body: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+#[test]
+fn bad_inputs_exit_2_with_line_and_column_and_leave_no_output() {
+    let d = tmpdir("bad");
+    let cases: [(&str, &[u8], &str); 5] = [
+        ("missing.ngc", b"G21\nG1 X1 Y\n", ":2:7:"),
+        (
+            "nocentre.ngc",
+            b"G21 G17\nG1 X0 Y0 F100\nG2 X1 Y1\n",
+            ":3:1:",
+        ),
+        ("number.ngc", b"G1 X1..5 F100\n", ":1:5:"),
+        ("comment.ngc", b"G21\n\nG0 X1 (never closed\n", ":3:7:"),
+        (
+            "bytes.ngc",
+            &[0x47, 0x31, 0x20, 0xff, 0xfe, 0x00, 0x9c, 0x12],
+            ":1:",
+        ),
+    ];
+    for (name, body, loc) in cases {
+        let f = write(&d, name, body);
+        let out_file = d.join(format!("{name}.out.ngc"));
+        for args in [
+            vec!["inspect", f.to_str().unwrap()],
+            vec![
+                "smooth",
+                f.to_str().unwrap(),
+                "--method",
+                "none",
+                "-o",
+                out_file.to_str().unwrap(),
+            ],
+        ] {
+            let o = run(&args);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+            assert!(
+                err.contains(&format!("{name}{loc}")),
+                "{name}: expected {loc} in {err}"
+            );
+            assert!(!out_file.exists(), "{name}: partial output left behind");
+        }
+    }
+    // Nothing but the inputs is left in the directory (no temporary files either).
+    assert_eq!(std::fs::read_dir(&d).unwrap().count(), cases.len());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn missing_file_and_bad_options_exit_2() {
+    assert_eq!(
+        run(&["inspect", "/nonexistent/x.ngc"]).status.code(),
+        Some(2)
+    );
+    let d = tmpdir("opts");
+    let f = write(&d, "ok.ngc", b"G21 G1 X1 F100\n");
+    let o = d.join("o.ngc");
+    let r = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--tol",
+        "-1",
+        "-o",
+        o.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(!o.exists());
+    let r = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "-o",
+        "/nonexistent-dir/o.ngc",
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn inspect_json_from_stdin() {
+    let mut child = bin()
+        .args(["inspect", "-", "--json"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"G20 G90\nG0 X1 Y0\nG1 X2 F10\nG2 X3 Y1 I0 J1\nM2\n")
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["moves_by_code"]["g0"], 1);
+    assert_eq!(v["moves_by_code"]["g1"], 1);
+    assert_eq!(v["moves_by_code"]["g2"], 1);
+    // Inch input in mm: X spans 0 .. 3 in = 76.2 mm.
+    let xmax = v["path"]["bbox"]["max"]["x"].as_f64().unwrap();
+    assert!((xmax - 76.2).abs() < 1e-9, "{xmax}");
+}
+
+#[test]
+fn smooth_none_round_trips_the_program() {
+    let d = tmpdir("none");
+    let src =
+        b"G21 G90 G17\nG0 X0 Y0\nM3 S1000\nG1 X10 Y0 F600\nG3 X10 Y10 I0 J5\nG1 X0 Y10\nM5\nM2\n";
+    let f = write(&d, "p.ngc", src);
+    let out = d.join("out.ngc");
+    let rep = d.join("r.json");
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        "none",
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    for needle in ["M3", "S1000", "G3", "M5", "M2", "X10"] {
+        assert!(text.contains(needle), "{needle} missing from\n{text}");
+    }
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(r["within_tol"], true);
+    assert!(r["deviation"]["output_to_programmed_mm"].as_f64().unwrap() < 1e-4);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn demo_writes_its_report() {
+    let d = tmpdir("demo");
+    let o = bin().current_dir(&d).arg("--quiet").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("ncsmooth-demo/report.json")).unwrap())
+            .unwrap();
+    assert_eq!(r["input"]["moves_by_code"]["g1"], 1000);
+    assert!(r["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|m| m["within_tol"] == true));
+    let _ = std::fs::remove_dir_all(&d);
+}
