@@ -96,11 +96,13 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
         let out = smooth_program(
             "butterfly_1000.ngc",
             &program,
-            m,
+            ncsmooth::smooth::SmoothOptions {
+                method: m,
+                ..Default::default()
+            },
             a.tol,
             None,
             4,
-            ncsmooth::verify::TANGENT_TOL_DEG,
         )?;
         let file = format!("butterfly_{}.ngc", m.name());
         io::write_atomic(&a.out.join(&file), out.gcode.as_bytes())?;

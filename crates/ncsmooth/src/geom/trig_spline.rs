@@ -83,10 +83,7 @@ pub fn basis(u: f64, lambda: f64, k: f64) -> [f64; 4] {
     }
     // B0 written out as in eq. 1 (not as 1 - B1 - B2 - B3) so that the sum is a test.
     let a = FRAC_2_PI;
-    b[0] = (1.0 - a * lambda) * f[0]
-        + (a - lambda) * f[1]
-        + lambda * (1.0 - a) * f[2]
-        - a * f[4]
+    b[0] = (1.0 - a * lambda) * f[0] + (a - lambda) * f[1] + lambda * (1.0 - a) * f[2] - a * f[4]
         + a * lambda;
     b
 }
@@ -222,7 +219,7 @@ impl TrigSpline {
     /// started 90 degrees of sweep. `None` for helical arcs (a linear axial motion is not in
     /// the span of the basis).
     pub fn arc(arc: &Arc) -> Option<Vec<TrigSpline>> {
-        if arc.is_helical() || !(arc.sweep > 0.0) || !arc.sweep.is_finite() {
+        if arc.is_helical() || !(arc.sweep > 0.0 && arc.sweep.is_finite()) {
             return None;
         }
         let n = (arc.sweep / FRAC_PI_2 - 1e-12).ceil().max(1.0) as usize;
@@ -501,7 +498,13 @@ mod tests {
 
     #[test]
     fn basis_sums_to_one() {
-        for &(l, k) in &[(0.0, -1.0), (1.0, -1.0), (0.5, 0.5), (1.5, 0.3), (-1.0, 2.0)] {
+        for &(l, k) in &[
+            (0.0, -1.0),
+            (1.0, -1.0),
+            (0.5, 0.5),
+            (1.5, 0.3),
+            (-1.0, 2.0),
+        ] {
             for i in 0..=20 {
                 let b = basis(i as f64 / 20.0, l, k);
                 assert!((b.iter().sum::<f64>() - 1.0).abs() < 1e-14, "{l} {k} {b:?}");
@@ -512,7 +515,11 @@ mod tests {
     #[test]
     fn end_conditions_of_eq3() {
         for &(l, k) in &[(0.7, 0.4), (0.0, -1.0), (1.3, 0.6), (-0.5, 1.5)] {
-            let c = TrigSpline { lambda: l, k, ..sample() };
+            let c = TrigSpline {
+                lambda: l,
+                k,
+                ..sample()
+            };
             let [q0, q1, q2, q3] = c.control_points();
             assert!(c.eval(0.0).dist(q0) < 1e-13);
             assert!(c.eval(1.0).dist(q1) < 1e-13);

@@ -301,7 +301,7 @@ fn rho_table() -> &'static [f64] {
                 let r0 = arc_rho(beta);
                 let score = |s: f64| {
                     let sh = round_shape_n(beta, r0 * s, TABLE_SAMPLES, false);
-                    if sh.inflects || !(sh.deviation > 0.0) {
+                    if sh.inflects || sh.deviation.is_nan() || sh.deviation <= 0.0 {
                         f64::NEG_INFINITY
                     } else {
                         -(sh.peak_curvature * sh.deviation)
@@ -440,11 +440,11 @@ fn inside_transition_with(
     tol_mm: f64,
     d_max: f64,
 ) -> Option<(TrigSpline, f64)> {
-    if !(sh.deviation > 0.0) {
+    if sh.deviation.is_nan() || sh.deviation <= 0.0 {
         return None;
     }
     let d = (tol_mm * (1.0 - CORNER_TOL_MARGIN) / sh.deviation).min(d_max);
-    if !(d > 0.0) || !d.is_finite() {
+    if !(d > 0.0 && d.is_finite()) {
         return None;
     }
     let c = TrigSpline::hermite(
@@ -462,7 +462,7 @@ fn inside_transition_with(
 pub fn loop_corner(v: Vec3, a: Vec3, b: Vec3, loop_size_mm: f64) -> Option<TrigSpline> {
     let beta = a.angle_to(b);
     let sh = loop_shape(beta, loop_lambda(beta));
-    if !(sh.excursion > 0.0) || !(loop_size_mm > 0.0) {
+    if !(sh.excursion > 0.0 && loop_size_mm > 0.0) {
         return None;
     }
     let tau = loop_size_mm * (1.0 - CORNER_TOL_MARGIN) / sh.excursion;
@@ -526,7 +526,7 @@ pub fn smooth_chain_trig(
     let finite = moves
         .iter()
         .all(|m| m.segment.start().is_finite() && m.segment.end().is_finite());
-    if !finite || !(opts.tol_mm > 0.0) {
+    if !(finite && opts.tol_mm > 0.0) {
         return chain.moves.to_vec();
     }
     let runs = screen(chain, &opts.trig.screen, opts.tol_mm);
@@ -549,7 +549,16 @@ pub fn smooth_chain_trig(
             while j + 1 < moves.len() && matches!(moves[j + 1].segment, Segment::Line(_)) {
                 j += 1;
             }
-            smooth_lines(i, j, moves, &run_vertex, opts, report, &mut counts, &mut pieces);
+            smooth_lines(
+                i,
+                j,
+                moves,
+                &run_vertex,
+                opts,
+                report,
+                &mut counts,
+                &mut pieces,
+            );
             i = j + 1;
         } else {
             pieces.push(OutPiece {
@@ -848,6 +857,70 @@ fn transition_lengths(poly: &Poly, kind: &[Kind], tol: f64) -> Vec<f64> {
         }
     }
     d
+}
+
+/// True for a loop segment of this method: a trig segment starting and ending at the same
+/// point (transitions and run segments always have distinct ends).
+pub fn is_loop(seg: &Segment) -> bool {
+    matches!(seg, Segment::Trig(c) if c.q0 == c.q1)
+}
+
+/// Relative flattening accuracy (share of the loop size) of [`check_loops`].
+const LOOP_CHECK_SHARE: f64 = 1e-4;
+
+/// The loops' own bound, measured on a smoothed program.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LoopCheck {
+    /// Loops in the program.
+    pub loops: usize,
+    /// Largest excursion of a loop from its corner (mm): an upper bound (flattened points
+    /// plus the flattening accuracy).
+    pub max_excursion_mm: f64,
+    /// Largest distance between a loop's ends and its corner (mm).
+    pub max_corner_miss_mm: f64,
+}
+
+impl LoopCheck {
+    /// True when every loop passes its corner within 1e-9 mm and stays within
+    /// `loop_size_mm`.
+    pub fn within(&self, loop_size_mm: f64) -> bool {
+        self.max_corner_miss_mm <= 1e-9 && self.max_excursion_mm <= loop_size_mm
+    }
+}
+
+/// Measures the loops of `tp` (see [`LoopCheck`]); `loop_size_mm` sets the flattening
+/// accuracy.
+pub fn check_loops(tp: &crate::path::Toolpath, loop_size_mm: f64) -> LoopCheck {
+    let acc = loop_size_mm * LOOP_CHECK_SHARE;
+    let mut c = LoopCheck::default();
+    for m in tp.moves() {
+        let Segment::Trig(t) = &m.segment else {
+            continue;
+        };
+        if !is_loop(&m.segment) {
+            continue;
+        }
+        c.loops += 1;
+        c.max_corner_miss_mm = c
+            .max_corner_miss_mm
+            .max(t.start().dist(t.q0))
+            .max(t.end().dist(t.q0));
+        let mut e: f64 = 0.0;
+        crate::geom::Flatten::flatten(t, acc, &mut |p| e = e.max(p.dist(t.q0)));
+        c.max_excursion_mm = c.max_excursion_mm.max(e + acc);
+    }
+    c
+}
+
+/// The program without its loops: the legs still reach every looped corner exactly, so
+/// this path is the one the two-sided tolerance applies to.
+pub fn without_loops(tp: &crate::path::Toolpath) -> crate::path::Toolpath {
+    let mut out = tp.clone();
+    out.blocks.retain(|b| match b {
+        crate::path::Block::Move(m) => !is_loop(&m.segment),
+        _ => true,
+    });
+    out
 }
 
 /// Figure data for the report: Fig. 1 families and a loop corner, sampled.
