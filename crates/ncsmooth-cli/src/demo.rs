@@ -75,7 +75,7 @@ struct DemoReport {
 }
 
 /// Methods the demo runs.
-const DEMO_METHODS: [Method; 1] = [Method::None];
+const DEMO_METHODS: [Method; 3] = [Method::None, Method::Arc, Method::Nurbs];
 
 /// Runs the demo.
 pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {

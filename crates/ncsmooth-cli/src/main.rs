@@ -7,6 +7,7 @@
 #![forbid(unsafe_code)]
 
 mod cmd_inspect;
+mod cmd_plan;
 mod cmd_smooth;
 mod demo;
 mod diag;
@@ -36,6 +37,9 @@ enum Cmd {
     Inspect(cmd_inspect::InspectArgs),
     /// Smooth a program within a two-sided tolerance and write G-code.
     Smooth(cmd_smooth::SmoothArgs),
+    /// Plan the feed under per-axis limits and write setpoints at a fixed period (CSV:
+    /// t s, x y z mm, feed mm/s), with a JSON report measured on the written rows.
+    Plan(cmd_plan::PlanArgs),
     /// Run the demo on the built-in butterfly profile and write its report (the default).
     Demo(demo::DemoArgs),
 }
@@ -61,6 +65,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Some(Cmd::Inspect(a)) => cmd_inspect::run(a, ui),
         Some(Cmd::Smooth(a)) => cmd_smooth::run(a, ui),
+        Some(Cmd::Plan(a)) => cmd_plan::run(a, ui),
         Some(Cmd::Demo(a)) => demo::run(a, ui),
         None => demo::run(demo::DemoArgs::default(), ui),
     }

@@ -3,11 +3,13 @@
 //! The numerical core of ncsmooth: geometry ([`geom`]), the path model ([`path`]) and the
 //! verification core ([`verify`]) by which every smoothing and planning result is judged.
 //!
-//! The pipeline is parse (crate `ncsmooth-gcode`) -> [`path`] -> smooth -> plan ->
-//! interpolate -> [`verify`] -> write.
+//! The pipeline is parse (crate `ncsmooth-gcode`) -> [`path`] -> smooth -> plan
+//! ([`feed`]) -> interpolate -> [`verify`] -> write.
 #![forbid(unsafe_code)]
 
+pub mod feed;
 pub mod geom;
+pub mod interp;
 pub mod path;
 pub mod profiles;
 pub mod smooth;

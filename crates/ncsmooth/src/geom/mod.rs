@@ -1,8 +1,11 @@
 //! Geometry: a `Copy` vector type, the curve capability traits and the curve kinds
-//! (line, arc/helix, cubic Bézier, NURBS, cubic trigonometric spline), gathered in the [`Segment`] enum.
+//! (line, arc/helix, cubic Bézier, NURBS, cubic trigonometric spline), gathered in the
+//! [`Segment`] enum; global curve interpolation ([`interp`]) on a banded solver ([`banded`]).
 
 mod arc;
+pub mod banded;
 mod cubic_bez;
+pub mod interp;
 mod line;
 mod nurbs;
 mod segment;

@@ -27,6 +27,8 @@
 //! * [`Method::Nurbs`]: Wu et al., NURBS fitting of micro-line runs plus arc corners.
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
+pub mod arc_corner;
+pub mod nurbs_hybrid;
 pub mod screen;
 pub mod trig_corner;
 
@@ -88,6 +90,10 @@ pub struct SmoothOptions {
     /// Junctions turning by less than this (degrees) pass through unchanged. Default:
     /// [`TANGENT_TOL_DEG`], the angle the continuity audit already calls tangent.
     pub straight_angle_deg: f64,
+    /// Corner arcs of [`Method::Arc`] and [`Method::Nurbs`]. Default: [`arc_corner::ArcOptions::default`].
+    pub arc: arc_corner::ArcOptions,
+    /// Fitting of [`Method::Nurbs`]. Default: [`nurbs_hybrid::NurbsOptions::default`].
+    pub nurbs: nurbs_hybrid::NurbsOptions,
     /// Settings of [`Method::Trig`]. Default: [`trig_corner::TrigOptions::default`].
     pub trig: trig_corner::TrigOptions,
 }
@@ -98,6 +104,8 @@ impl Default for SmoothOptions {
             method: Method::None,
             tol_mm: 0.01,
             straight_angle_deg: TANGENT_TOL_DEG,
+            arc: Default::default(),
+            nurbs: Default::default(),
             trig: trig_corner::TrigOptions::default(),
         }
     }
@@ -136,6 +144,21 @@ impl SmoothOptions {
                 "straight angle",
                 self.straight_angle_deg,
                 "degrees in [0, 90)",
+            ));
+        }
+        if !(self.arc.min_radius_mm >= 0.0 && self.arc.min_radius_mm.is_finite()) {
+            return Err(OptionsError::OutOfRange(
+                "min arc radius",
+                self.arc.min_radius_mm,
+                "a length >= 0 in mm",
+            ));
+        }
+        let share = self.nurbs.fit_accuracy_share;
+        if !(share > 0.0 && share < 1.0) {
+            return Err(OptionsError::OutOfRange(
+                "fit accuracy share",
+                share,
+                "a share in (0, 1)",
             ));
         }
         if let trig_corner::CornerStyle::Loop { loop_size_mm } = self.trig.corner {
@@ -374,6 +397,8 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
 fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
     match opts.method {
         Method::None => passthrough(chain),
+        Method::Arc => arc_corner::smooth_arc(chain, opts, report),
+        Method::Nurbs => nurbs_hybrid::smooth_nurbs(chain, opts, report),
         Method::Trig => trig_corner::smooth_chain_trig(chain, opts, report),
         // Methods are added in their own modules.
         _ => passthrough(chain),

@@ -1,0 +1,286 @@
+//! `ncsmooth plan`: smooth a program (any method; `none` plans it as written), plan the
+//! feed under per-axis limits and write setpoints at a fixed period, streamed to the CSV
+//! (never collected), with a JSON report of what was measured on the written rows.
+//!
+//! The input may also be `builtin:butterfly`: the published butterfly NURBS as one curve
+//! (F 50 mm/s), for planning a smooth curve without a smoothing step.
+
+use crate::cmd_smooth::MethodArg;
+use crate::{io, load, Ui};
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use ncsmooth::feed::PlanOptions;
+use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
+use ncsmooth::interp::{execute, InterpMethod, InterpOptions, PlanReport};
+use ncsmooth::path::{Move, Toolpath};
+use ncsmooth::smooth::{smooth, SmoothOptions, SmoothReport};
+use serde::Serialize;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Name of the built-in butterfly input.
+pub const BUILTIN_BUTTERFLY: &str = "builtin:butterfly";
+/// Feed (mm/s) of the built-in butterfly.
+const BUILTIN_FEED_MM_S: f64 = 50.0;
+/// Accuracy (mm) of the arc-length sampling of `--path-samples`.
+const SAMPLE_ACCURACY_MM: f64 = 1e-9;
+
+/// Interpolation method names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InterpArg {
+    /// Newton-Raphson on the chord length (Wu eqs. 17-20).
+    Newton,
+    /// First-order Taylor step (Wu eq. 19).
+    Taylor1,
+    /// Second-order Taylor step.
+    Taylor2,
+}
+
+/// Stopping rule of Wu eq. 20.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum NewtonStop {
+    /// Stop when eta <= eta_tol and n iterations were made (eq. 20 as printed).
+    Both,
+    /// Stop when eta <= eta_tol or after n iterations (cheaper, noisier setpoints).
+    Either,
+}
+
+/// Arguments of `plan`.
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    /// G-code file, `-` for stdin, or `builtin:butterfly`.
+    pub file: String,
+    /// Smoothing method applied before planning (methods not built yet pass the program
+    /// through unchanged).
+    #[arg(long, value_enum, default_value = "none")]
+    pub method: MethodArg,
+    /// Two-sided smoothing tolerance (mm).
+    #[arg(long, default_value_t = 0.01)]
+    pub tol: f64,
+    /// Largest feed (mm/s); a lower programmed F wins.
+    #[arg(long, default_value_t = 50.0)]
+    pub feed: f64,
+    /// Per-axis acceleration limit (mm/s^2): one value or x,y,z.
+    #[arg(long, default_value = "500")]
+    pub acc: String,
+    /// Per-axis jerk limit (mm/s^3): one value or x,y,z. NOT IMPLEMENTED: the profile is
+    /// the trapezoid (linear acceleration); giving it is an error.
+    #[arg(long)]
+    pub jerk: Option<String>,
+    /// Per-axis velocity limit (mm/s): one value or x,y,z [default: none].
+    #[arg(long)]
+    pub vaxis: Option<String>,
+    /// Rapid (G0) speed (mm/s) [default: --feed].
+    #[arg(long)]
+    pub rapid: Option<f64>,
+    /// Interpolation period T (s).
+    #[arg(long, default_value_t = 0.001)]
+    pub period: f64,
+    /// Chord error delta (mm) of Wu eq. 21: v <= (2/T) sqrt(delta (2R - delta)).
+    #[arg(long, default_value_t = 0.001)]
+    pub chord_error: f64,
+    /// Junction deviation (mm): pass unsmoothed corners at grbl's junction speed instead
+    /// of stopping (the setpoints then exceed --acc at those corners; the report says so).
+    #[arg(long)]
+    pub junction_dev: Option<f64>,
+    /// Interpolation method.
+    #[arg(long, value_enum, default_value = "newton")]
+    pub interp: InterpArg,
+    /// Feed-fluctuation tolerance eta_tol (fraction; 0.001 = 0.1 %).
+    #[arg(long, default_value_t = 0.001)]
+    pub eta_tol: f64,
+    /// Newton iterations n.
+    #[arg(long, default_value_t = 2)]
+    pub newton_iters: usize,
+    /// Newton stopping rule (eq. 20).
+    #[arg(long, value_enum, default_value = "both")]
+    pub newton_stop: NewtonStop,
+    /// Setpoints CSV (t s, x y z mm, feed mm/s, extra axes) [default: measured, not written].
+    #[arg(long)]
+    pub setpoints: Option<PathBuf>,
+    /// JSON report file.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Also write the planned path sampled every --sample-ds mm of arc length (CSV
+    /// s,x,y,z in mm; for external comparisons such as scripts/toppra_compare.py).
+    #[arg(long)]
+    pub path_samples: Option<PathBuf>,
+    /// Arc-length spacing (mm) of --path-samples.
+    #[arg(long, default_value_t = 0.05)]
+    pub sample_ds: f64,
+}
+
+/// The JSON report of `plan`.
+#[derive(Serialize, Debug)]
+pub struct PlanRunReport {
+    /// Input name.
+    pub input: String,
+    /// Method asked for.
+    pub method: String,
+    /// What smoothing did.
+    pub smoothing: SmoothReport,
+    /// Seconds parsing.
+    pub parse_s: f64,
+    /// Seconds smoothing.
+    pub smooth_s: f64,
+    /// Planning and interpolation.
+    pub plan: PlanReport,
+    /// Cycle time / (parse + smooth + plan + interpolate + write) time.
+    pub end_to_end_real_time_factor: f64,
+}
+
+fn axes(name: &str, s: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| io::BadInput(format!("--{name} {s}: expected one number or x,y,z")))?;
+    match v.as_slice() {
+        [a] => Ok([*a; 3]),
+        [a, b, c] => Ok([*a, *b, *c]),
+        _ => Err(io::BadInput(format!("--{name} {s}: expected one number or x,y,z")).into()),
+    }
+}
+
+fn builtin_butterfly() -> Toolpath {
+    let b = ncsmooth::profiles::butterfly();
+    let mut tp = Toolpath::new(b.start());
+    tp.push_move(Move::feed(b, Some(BUILTIN_FEED_MM_S), 1));
+    tp
+}
+
+/// Writes `s,x,y,z` every `ds` mm along the moves (and each move's end).
+fn write_samples(path: &Path, tp: &Toolpath, ds: f64) -> Result<()> {
+    let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut w = BufWriter::new(f);
+    writeln!(w, "s,x,y,z")?;
+    let mut s0 = 0.0;
+    let mut first = true;
+    for m in tp.moves() {
+        let seg = &m.segment;
+        let len = seg.arclen(SAMPLE_ACCURACY_MM);
+        if len <= 0.0 {
+            continue;
+        }
+        let n = (len / ds).ceil().max(1.0) as usize;
+        for i in usize::from(!first)..=n {
+            let s = len * i as f64 / n as f64;
+            let p = seg.eval(seg.inv_arclen(s, SAMPLE_ACCURACY_MM));
+            writeln!(w, "{:.9},{:.9},{:.9},{:.9}", s0 + s, p.x, p.y, p.z)?;
+        }
+        first = false;
+        s0 += len;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Runs `plan`.
+pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
+    let t0 = Instant::now();
+    if a.jerk.is_some() {
+        return Err(io::BadInput(
+            "--jerk: jerk-limited (S-curve) planning is not implemented yet; the profile is the trapezoid".into(),
+        )
+        .into());
+    }
+    let (toolpath, name) = if a.file == BUILTIN_BUTTERFLY {
+        (builtin_butterfly(), a.file.clone())
+    } else {
+        (
+            load(&a.file)?.toolpath,
+            io::display_name(&a.file).to_string(),
+        )
+    };
+    let parse_s = t0.elapsed().as_secs_f64();
+    let popts = PlanOptions {
+        feed_mm_s: a.feed,
+        rapid_mm_s: a.rapid,
+        acc_mm_s2: axes("acc", &a.acc)?,
+        vaxis_mm_s: a.vaxis.as_deref().map(|v| axes("vaxis", v)).transpose()?,
+        period_s: a.period,
+        chord_error_mm: a.chord_error,
+        junction_dev_mm: a.junction_dev,
+    };
+    popts
+        .validate()
+        .map_err(|e| io::BadInput(format!("--{e}")))?;
+    if !(a.eta_tol >= 0.0 && a.eta_tol.is_finite()) {
+        return Err(io::BadInput(format!("--eta-tol {} must be >= 0", a.eta_tol)).into());
+    }
+    let iopts = InterpOptions {
+        method: match a.interp {
+            InterpArg::Newton => InterpMethod::Newton,
+            InterpArg::Taylor1 => InterpMethod::Taylor1,
+            InterpArg::Taylor2 => InterpMethod::Taylor2,
+        },
+        eta_tol: a.eta_tol,
+        max_iters: a.newton_iters,
+        stop_on_either: a.newton_stop == NewtonStop::Either,
+    };
+    let t1 = Instant::now();
+    let sopts = SmoothOptions {
+        method: a.method.into(),
+        tol_mm: a.tol,
+        ..Default::default()
+    };
+    let smoothed = smooth(&toolpath, &sopts).map_err(|e| io::BadInput(e.to_string()))?;
+    drop(toolpath);
+    let smooth_s = t1.elapsed().as_secs_f64();
+    if let Some(p) = &a.path_samples {
+        if a.sample_ds.is_nan() || a.sample_ds <= 0.0 {
+            return Err(io::BadInput("--sample-ds must be positive".into()).into());
+        }
+        write_samples(p, &smoothed.toolpath, a.sample_ds)?;
+    }
+    let report = match &a.setpoints {
+        Some(p) if p.as_os_str() != "-" => {
+            let tmp = p.with_extension("csv.partial");
+            let f = std::fs::File::create(&tmp)
+                .with_context(|| format!("creating {}", tmp.display()))?;
+            let (rep, w) = execute(
+                &smoothed.toolpath,
+                &popts,
+                &iopts,
+                BufWriter::with_capacity(1 << 20, f),
+            )?;
+            w.into_inner().map_err(|e| e.into_error())?.sync_all().ok();
+            std::fs::rename(&tmp, p).with_context(|| format!("writing {}", p.display()))?;
+            rep
+        }
+        Some(_) => {
+            let out = std::io::stdout().lock();
+            execute(&smoothed.toolpath, &popts, &iopts, BufWriter::new(out))?.0
+        }
+        None => execute(&smoothed.toolpath, &popts, &iopts, std::io::sink())?.0,
+    };
+    let total = t0.elapsed().as_secs_f64();
+    let run = PlanRunReport {
+        input: name.clone(),
+        method: sopts.method.name().to_string(),
+        smoothing: smoothed.report,
+        parse_s,
+        smooth_s,
+        end_to_end_real_time_factor: report.cycle_time_s / total,
+        plan: report,
+    };
+    if let Some(rp) = &a.report {
+        io::write_atomic(rp, serde_json::to_string_pretty(&run)?.as_bytes())?;
+    }
+    let r = &run.plan;
+    let worst = r.axes.iter().map(|x| x.a_ratio).fold(0.0f64, f64::max);
+    ui.status(format!(
+        "{name}: cycle {:.3} s, {} setpoints, eta max {:.3e} %, worst axis acc {:.4} x limit, stops: {} corner {} event {} dwell; real-time factor {:.0} (end to end {:.0})",
+        r.cycle_time_s,
+        r.setpoints,
+        r.interp.eta_max * 100.0,
+        worst,
+        r.exact_stops.corner,
+        r.exact_stops.event,
+        r.exact_stops.dwell,
+        r.real_time_factor,
+        run.end_to_end_real_time_factor
+    ));
+    Ok(())
+}

@@ -1,0 +1,355 @@
+//! The limits along the path, as constraints on `x = v^2` (see the [`crate::feed`] doc):
+//! speed caps at a point ([`point_cap_x`]), joint caps ([`g1_joint_cap_x`],
+//! [`junction_cap_x`]) and the per-axis acceleration constraints of a grid interval
+//! ([`Interval`]), with the two small linear programs the look-ahead passes solve on it.
+
+use crate::geom::Vec3;
+
+/// Below this magnitude a tangent or curvature component does not constrain its axis
+/// (a component of 1e-12 on a 1 m/s feed is 1e-9 mm/s).
+pub const NEGLIGIBLE: f64 = 1e-12;
+
+/// The limits as the planner uses them (accelerations already scaled by
+/// [`super::ACC_PLANNING_FACTOR`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Caps {
+    /// Per-axis acceleration (mm/s^2).
+    pub acc: [f64; 3],
+    /// Per-axis velocity (mm/s), if limited.
+    pub vaxis: Option<[f64; 3]>,
+    /// Interpolation period (s).
+    pub period_s: f64,
+    /// Chord error (mm).
+    pub chord_error_mm: f64,
+}
+
+/// Largest `x = v^2` allowed at a point with unit tangent `t`, curvature vector `k` (1/mm)
+/// and speed cap `vcap` (mm/s): the feed, the per-axis velocity, the per-axis curvature
+/// limit `x |k_i| <= A_i` and the chord error of Wu eq. 21.
+pub fn point_cap_x(t: Vec3, k: Vec3, vcap: f64, caps: &Caps) -> f64 {
+    let mut x = vcap * vcap;
+    for i in 0..3 {
+        if let Some(v) = caps.vaxis {
+            let ti = t[i].abs();
+            if ti > NEGLIGIBLE {
+                x = x.min((v[i] / ti).powi(2));
+            }
+        }
+        let ki = k[i].abs();
+        if ki > NEGLIGIBLE {
+            x = x.min(caps.acc[i] / ki);
+        }
+    }
+    let kappa = k.norm();
+    if kappa > NEGLIGIBLE {
+        let r = 1.0 / kappa;
+        let d = caps.chord_error_mm;
+        // Longest chord whose sagitta is at most d: 2 sqrt(d (2R - d)) while d < R; for
+        // R <= d every chord (up to the diameter) is within d.
+        let chord = if d < r {
+            2.0 * (d * (2.0 * r - d)).sqrt()
+        } else {
+            2.0 * r
+        };
+        let v = chord / caps.period_s;
+        x = x.min(v * v);
+    }
+    x
+}
+
+/// G1 joint: the normal acceleration steps by `x (k_right - k_left)`; keep each axis's
+/// step within its limit.
+pub fn g1_joint_cap_x(k_left: Vec3, k_right: Vec3, caps: &Caps) -> f64 {
+    let dk = k_right - k_left;
+    let mut x = f64::INFINITY;
+    for i in 0..3 {
+        let d = dk[i].abs();
+        if d > NEGLIGIBLE {
+            x = x.min(caps.acc[i] / d);
+        }
+    }
+    x
+}
+
+/// Cosine above which grbl treats a junction as a full reversal (stop).
+const JUNCTION_REVERSAL_COS: f64 = 0.999_999;
+
+/// grbl's junction-deviation corner speed (as `x = v^2`) between unit directions `d_in`
+/// and `d_out`: `v^2 = a delta sin(theta/2) / (1 - sin(theta/2))` with `theta` the angle
+/// between `-d_in` and `d_out` and `a` the largest acceleration the axes allow along
+/// `d_out - d_in`. Zero for a reversal.
+pub fn junction_cap_x(d_in: Vec3, d_out: Vec3, deviation_mm: f64, caps: &Caps) -> f64 {
+    let cos_theta = -d_in.dot(d_out);
+    if cos_theta > JUNCTION_REVERSAL_COS {
+        return 0.0;
+    }
+    let Some(u) = (d_out - d_in).normalized() else {
+        return f64::INFINITY;
+    };
+    let mut a = f64::INFINITY;
+    for i in 0..3 {
+        if u[i].abs() > NEGLIGIBLE {
+            a = a.min(caps.acc[i] / u[i].abs());
+        }
+    }
+    let sin_half = (0.5 * (1.0 - cos_theta)).max(0.0).sqrt();
+    a * deviation_mm * sin_half / (1.0 - sin_half)
+}
+
+/// Largest tangential acceleration (mm/s^2) along a fixed unit direction `t` on a straight
+/// piece: `min_i A_i / |t_i|`.
+pub fn line_acc(t: Vec3, caps: &Caps) -> f64 {
+    let mut u = f64::INFINITY;
+    for i in 0..3 {
+        if t[i].abs() > NEGLIGIBLE {
+            u = u.min(caps.acc[i] / t[i].abs());
+        }
+    }
+    u
+}
+
+/// One grid interval of length `ds` with the geometry at its two ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interval {
+    /// Arc length (mm), > 0.
+    pub ds: f64,
+    /// Straight (no curvature at either end, same tangent): the acceleration bound is the
+    /// constant [`Interval::u_line`] and the profile inside may switch phases.
+    pub straight: bool,
+    /// For straight intervals, the tangential acceleration bound (mm/s^2).
+    pub u_line: f64,
+    /// For straight intervals, the cap on `v^2` inside (the line's own speed limits; the
+    /// end points may carry lower joint caps).
+    pub x_inside: f64,
+    /// Unit tangent at the start.
+    pub t0: Vec3,
+    /// Curvature vector at the start (1/mm).
+    pub k0: Vec3,
+    /// Unit tangent at the end.
+    pub t1: Vec3,
+    /// Curvature vector at the end (1/mm).
+    pub k1: Vec3,
+}
+
+/// Linear constraints `a p + b q <= c` in `p = x_start`, `q = x_end` (at most 4 per axis).
+struct Rows {
+    r: [(f64, f64, f64); 12],
+    n: usize,
+}
+
+impl Interval {
+    fn rows(&self, caps: &Caps) -> Rows {
+        let h = 2.0 * self.ds;
+        let mut rows = Rows {
+            r: [(0.0, 0.0, 0.0); 12],
+            n: 0,
+        };
+        let mut push = |a: f64, b: f64, c: f64| {
+            if a.abs() > NEGLIGIBLE || b.abs() > NEGLIGIBLE {
+                rows.r[rows.n] = (a, b, c);
+                rows.n += 1;
+            }
+        };
+        for i in 0..3 {
+            let ha = h * caps.acc[i];
+            let (t0, k0, t1, k1) = (self.t0[i], self.k0[i], self.t1[i], self.k1[i]);
+            // Start: |(q - p)/h t0 + p k0| <= A.
+            push(h * k0 - t0, t0, ha);
+            push(t0 - h * k0, -t0, ha);
+            // End: |(q - p)/h t1 + q k1| <= A.
+            push(-t1, t1 + h * k1, ha);
+            push(t1, -t1 - h * k1, ha);
+        }
+        rows
+    }
+
+    /// Backward step: the largest `p <= p_cap` from which some `q` in `[0, q_cap]` is
+    /// reachable over this interval. Returns `(p, free)`, `free` when `p_cap` itself is
+    /// reachable (the downstream did not bind).
+    pub fn backward(&self, p_cap: f64, q_cap: f64, caps: &Caps) -> (f64, bool) {
+        if self.straight {
+            let p = q_cap + 2.0 * self.u_line * self.ds;
+            return if p >= p_cap {
+                (p_cap, true)
+            } else {
+                (p, false)
+            };
+        }
+        let rows = self.rows(caps);
+        // Fourier-Motzkin elimination of q: upper bounds q <= al + be p, lower bounds
+        // q >= ga + de p; the feasible p form an interval containing 0 (p = q = 0 needs
+        // no acceleration), so the largest p is the least of the upper bounds on p.
+        let mut up = [(q_cap, 0.0); 13];
+        let mut lo = [(0.0, 0.0); 13];
+        let (mut nu, mut nl) = (1usize, 1usize);
+        let mut p_max = p_cap;
+        for &(a, b, c) in &rows.r[..rows.n] {
+            if b > NEGLIGIBLE {
+                up[nu] = (c / b, -a / b);
+                nu += 1;
+            } else if b < -NEGLIGIBLE {
+                lo[nl] = (c / b, -a / b);
+                nl += 1;
+            } else if a > NEGLIGIBLE {
+                p_max = p_max.min(c / a);
+            }
+        }
+        for &(al, be) in &up[..nu] {
+            for &(ga, de) in &lo[..nl] {
+                let slope = be - de;
+                if slope < 0.0 {
+                    p_max = p_max.min((ga - al) / slope);
+                }
+            }
+        }
+        let p = p_max.max(0.0);
+        (p, p >= p_cap)
+    }
+
+    /// Forward step: the largest `q <= q_cap` reachable from `p`.
+    pub fn forward(&self, p: f64, q_cap: f64, caps: &Caps) -> f64 {
+        if self.straight {
+            return q_cap.min(p + 2.0 * self.u_line * self.ds).max(0.0);
+        }
+        let rows = self.rows(caps);
+        let mut q = q_cap;
+        for &(a, b, c) in &rows.r[..rows.n] {
+            if b > NEGLIGIBLE {
+                q = q.min((c - a * p) / b);
+            }
+        }
+        q.max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn caps() -> Caps {
+        Caps {
+            acc: [500.0, 500.0, 500.0],
+            vaxis: None,
+            period_s: 0.001,
+            chord_error_mm: 0.001,
+        }
+    }
+
+    #[test]
+    fn curvature_and_chord_caps() {
+        // Circle of radius 10 in XY at the point (10, 0): tangent +Y, curvature -X / 10.
+        let x = point_cap_x(Vec3::Y, Vec3::new(-0.1, 0.0, 0.0), 1e9, &caps());
+        // Curvature: v^2 <= 500 * 10 = 5000; chord: (2/T) sqrt(0.001 (20 - 0.001)).
+        let chord = 2000.0 * (0.001f64 * (20.0 - 0.001)).sqrt();
+        assert!((x - 5000.0f64.min(chord * chord)).abs() < 1e-9);
+        // Along a diagonal normal the axes share the load: a_dir = 500 / cos 45.
+        let n = Vec3::new(-1.0, -1.0, 0.0) / 2f64.sqrt();
+        let x = point_cap_x(
+            Vec3::new(1.0, -1.0, 0.0) / 2f64.sqrt(),
+            n * 0.1,
+            1e9,
+            &caps(),
+        );
+        assert!((x - 500.0 * 2f64.sqrt() * 10.0).abs() < 1e-6);
+        // Tiny radius: the chord limit is the diameter.
+        let big = Caps {
+            acc: [1e12; 3],
+            ..caps()
+        };
+        let x = point_cap_x(Vec3::Y, Vec3::new(-2000.0, 0.0, 0.0), 1e9, &big);
+        assert!((x - (2.0 / 2000.0 / 0.001f64).powi(2)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn junction_deviation_matches_grbl() {
+        // 90 degree corner, X then Y: theta = 90, sin 45; direction change (-1, 1)/sqrt2.
+        let x = junction_cap_x(Vec3::X, Vec3::Y, 0.01, &caps());
+        let s = (0.5f64).sqrt();
+        let a = 500.0 * 2f64.sqrt();
+        assert!((x - a * 0.01 * s / (1.0 - s)).abs() < 1e-9);
+        assert_eq!(junction_cap_x(Vec3::X, -Vec3::X, 0.01, &caps()), 0.0);
+    }
+
+    #[test]
+    fn straight_and_lp_agree_on_lines() {
+        let t = Vec3::new(3.0, 4.0, 0.0) / 5.0;
+        let c = caps();
+        let straight = Interval {
+            ds: 0.7,
+            straight: true,
+            u_line: line_acc(t, &c),
+            x_inside: 1e9,
+            t0: t,
+            k0: Vec3::ZERO,
+            t1: t,
+            k1: Vec3::ZERO,
+        };
+        let lp = Interval {
+            straight: false,
+            ..straight
+        };
+        for &(p_cap, q_cap) in &[(1e9, 0.0), (100.0, 30.0), (1e9, 1e3)] {
+            let (a, fa) = straight.backward(p_cap, q_cap, &c);
+            let (b, fb) = lp.backward(p_cap, q_cap, &c);
+            assert!((a - b).abs() < 1e-9 * a.max(1.0), "{a} {b}");
+            assert_eq!(fa, fb);
+        }
+        for &(p, q_cap) in &[(0.0, 1e9), (100.0, 200.0), (500.0, 1e9)] {
+            let a = straight.forward(p, q_cap, &c);
+            let b = lp.forward(p, q_cap, &c);
+            assert!((a - b).abs() < 1e-9 * a.max(1.0), "{a} {b}");
+        }
+        // u_line = 500 / 0.8 (the Y axis binds).
+        assert!((straight.u_line - 625.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arc_interval_respects_axis_acceleration() {
+        // A short piece of a radius-5 circle; check every accepted (p, q) by brute force.
+        let c = caps();
+        let r = 5.0;
+        let (a0, a1) = (0.0f64, 0.04f64);
+        let geom = |a: f64| {
+            let t = Vec3::new(-a.sin(), a.cos(), 0.0);
+            let k = Vec3::new(-a.cos(), -a.sin(), 0.0) / r;
+            (t, k)
+        };
+        let (t0, k0) = geom(a0);
+        let (t1, k1) = geom(a1);
+        let iv = Interval {
+            ds: r * (a1 - a0),
+            straight: false,
+            u_line: 0.0,
+            x_inside: 0.0,
+            t0,
+            k0,
+            t1,
+            k1,
+        };
+        let check = |p: f64, q: f64| {
+            let u = (q - p) / (2.0 * iv.ds);
+            for (t, k, x) in [(t0, k0, p), (t1, k1, q)] {
+                for i in 0..3 {
+                    assert!((u * t[i] + x * k[i]).abs() <= c.acc[i] * (1.0 + 1e-9));
+                }
+            }
+        };
+        for q_cap in [0.0, 100.0, 1000.0, 2500.0] {
+            let (p, _) = iv.backward(1e9, q_cap, &c);
+            // Some q in [0, q_cap] must work: the most decelerating one is the forward
+            // pass's lower end; check the pair with the smallest admissible q by scanning.
+            let mut ok = false;
+            for j in 0..=1000 {
+                let q = q_cap * j as f64 / 1000.0;
+                let u = (q - p) / (2.0 * iv.ds);
+                let fits = [(t0, k0, p), (t1, k1, q)].iter().all(|(t, k, x)| {
+                    (0..3).all(|i| (u * t[i] + x * k[i]).abs() <= c.acc[i] * (1.0 + 1e-6))
+                });
+                ok |= fits;
+            }
+            assert!(ok, "q_cap {q_cap}: p {p} not controllable");
+            let q = iv.forward(p.min(2000.0), 1e9, &c);
+            check(p.min(2000.0), q);
+        }
+    }
+}

@@ -1,0 +1,326 @@
+//! Bidirectional look-ahead over bounded windows of the planning grid (see the
+//! [`crate::feed`] doc for why a committed prefix is final), producing the speed profile
+//! as a stream of constant-acceleration pieces ([`ProfilePiece`]) and stops.
+
+use super::grid::{GridGen, GridPoint, PathIndex};
+use super::limits::Interval;
+use super::{PlanOptions, StopCounts, StopReason};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Grid points a window starts with; a window grows (doubles) when no point in it is
+/// free of the assumed stop at its end.
+pub const WINDOW_POINTS: usize = 4096;
+
+/// A piece of the profile with constant tangential acceleration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProfilePiece {
+    /// Arc length at the start (mm).
+    pub s0: f64,
+    /// Length (mm), > 0.
+    pub ds: f64,
+    /// Speed at the start (mm/s).
+    pub v0: f64,
+    /// Speed at the end (mm/s).
+    pub v1: f64,
+    /// Duration (s): `2 ds / (v0 + v1)`.
+    pub dt: f64,
+}
+
+impl ProfilePiece {
+    /// Tangential acceleration (mm/s^2).
+    pub fn acc(&self) -> f64 {
+        (self.v1 - self.v0) / self.dt
+    }
+    /// Arc length and speed `tau` seconds into the piece (clamped to the piece).
+    pub fn at(&self, tau: f64) -> (f64, f64) {
+        let tau = tau.clamp(0.0, self.dt);
+        let a = self.acc();
+        let s = (self.v0 * tau + 0.5 * a * tau * tau).clamp(0.0, self.ds);
+        (self.s0 + s, (self.v0 + a * tau).max(0.0))
+    }
+}
+
+/// What the planner emits, in order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PlanEvent {
+    /// Motion.
+    Piece(ProfilePiece),
+    /// The machine is at rest at `s` for `dwell_s` seconds (then until the next period
+    /// boundary).
+    Stop {
+        /// Arc length (mm).
+        s: f64,
+        /// Why.
+        reason: StopReason,
+        /// Time at rest (s).
+        dwell_s: f64,
+    },
+}
+
+/// Statistics of a planning run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PlanStats {
+    /// Windows committed.
+    pub windows: usize,
+    /// Grid points generated.
+    pub grid_points: usize,
+    /// Largest window (grid points).
+    pub max_window_points: usize,
+    /// Times a window had to grow before any of it could be committed.
+    pub window_growths: usize,
+    /// Exact stops by reason.
+    pub stops: StopCounts,
+    /// Time spent planning (s), excluding what the sink does.
+    pub plan_time_s: f64,
+}
+
+fn backward(
+    pts: &[GridPoint],
+    ivs: &[Interval],
+    caps: &super::limits::Caps,
+    bwd: &mut Vec<f64>,
+    free: &mut Vec<bool>,
+) {
+    let n = pts.len();
+    bwd.clear();
+    bwd.resize(n, 0.0);
+    free.clear();
+    free.resize(n, false);
+    bwd[n - 1] = 0.0;
+    for k in (0..n - 1).rev() {
+        let (p, f) = ivs[k].backward(pts[k].x_cap, bwd[k + 1], caps);
+        bwd[k] = p;
+        free[k] = f;
+    }
+}
+
+/// Splits interval `iv` travelled from `x = p` to `x = q` into constant-acceleration
+/// pieces: one for a curved interval (x linear in s), up to three (accelerate, cruise,
+/// decelerate) for a straight one.
+fn pieces(iv: &Interval, s0: f64, p: f64, q: f64, out: &mut Vec<ProfilePiece>) {
+    let mut push = |s0: f64, ds: f64, x0: f64, x1: f64| {
+        if ds > 0.0 {
+            let (v0, v1) = (x0.max(0.0).sqrt(), x1.max(0.0).sqrt());
+            if v0 + v1 > 0.0 {
+                out.push(ProfilePiece {
+                    s0,
+                    ds,
+                    v0,
+                    v1,
+                    dt: 2.0 * ds / (v0 + v1),
+                });
+            }
+        }
+    };
+    if !iv.straight {
+        push(s0, iv.ds, p, q);
+        return;
+    }
+    let u2 = 2.0 * iv.u_line;
+    let xm = iv.x_inside.min(0.5 * (p + q + u2 * iv.ds)).max(p).max(q);
+    let s1 = ((xm - p) / u2).clamp(0.0, iv.ds);
+    let s3 = ((xm - q) / u2).clamp(0.0, iv.ds - s1);
+    let s2 = iv.ds - s1 - s3;
+    push(s0, s1, p, xm);
+    push(s0 + s1, s2, xm, xm);
+    push(s0 + s1 + s2, s3, xm, q);
+}
+
+/// Plans the whole program of `index` under `opts` (which must be valid), calling `sink`
+/// with the profile pieces and stops in order. Memory is bounded by the window size.
+pub fn plan_stream(
+    index: &PathIndex<'_>,
+    opts: &PlanOptions,
+    mut sink: impl FnMut(PlanEvent),
+) -> PlanStats {
+    let mut stats = PlanStats::default();
+    let mut gen = GridGen::new(index, opts);
+    let caps = *gen.caps();
+    if let Some((reason, dwell_s)) = index.lead {
+        stats.stops.add(reason);
+        sink(PlanEvent::Stop {
+            s: 0.0,
+            reason,
+            dwell_s,
+        });
+    }
+    let mut pts = vec![GridPoint {
+        s: 0.0,
+        x_cap: 0.0,
+        stop: None,
+    }];
+    let mut ivs: Vec<Interval> = Vec::new();
+    let (mut bwd, mut free, mut xf) = (Vec::new(), Vec::new(), Vec::new());
+    let mut out: Vec<ProfilePiece> = Vec::new();
+    let mut x0: f64 = 0.0;
+    loop {
+        let clock = Instant::now();
+        let mut target = WINDOW_POINTS.max(pts.len() + 1);
+        let before = pts.len();
+        let mut generated = 0;
+        let (ended, commit) = loop {
+            let len0 = pts.len();
+            let ended = gen.fill(&mut pts, &mut ivs, target);
+            generated += pts.len() - len0;
+            backward(&pts, &ivs, &caps, &mut bwd, &mut free);
+            if ended {
+                break (true, pts.len() - 1);
+            }
+            if let Some(c) = (1..pts.len() - 1).rev().find(|&j| free[j]) {
+                break (false, c);
+            }
+            target *= 2;
+            stats.window_growths += 1;
+        };
+        let _ = before;
+        stats.grid_points += generated;
+        stats.max_window_points = stats.max_window_points.max(pts.len());
+        stats.windows += 1;
+        // Forward pass over the committed prefix.
+        xf.clear();
+        xf.push(x0.min(bwd[0]).max(0.0));
+        out.clear();
+        for k in 0..commit {
+            let q = ivs[k].forward(xf[k], bwd[k + 1], &caps);
+            xf.push(q);
+            pieces(&ivs[k], pts[k].s, xf[k], q, &mut out);
+        }
+        stats.plan_time_s += clock.elapsed().as_secs_f64();
+        for pc in &out {
+            sink(PlanEvent::Piece(*pc));
+        }
+        if ended {
+            let last = pts[pts.len() - 1];
+            let (reason, dwell_s) = last.stop.unwrap_or((StopReason::End, 0.0));
+            stats.stops.add(reason);
+            sink(PlanEvent::Stop {
+                s: last.s,
+                reason,
+                dwell_s,
+            });
+            if reason == StopReason::End {
+                break;
+            }
+            pts.clear();
+            pts.push(GridPoint {
+                s: last.s,
+                x_cap: 0.0,
+                stop: None,
+            });
+            ivs.clear();
+            x0 = 0.0;
+        } else {
+            x0 = xf[commit];
+            pts.drain(..commit);
+            ivs.drain(..commit);
+        }
+    }
+    stats.stops.junction_blended = gen.blended;
+    stats
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Line, Vec3};
+    use crate::path::{Move, Toolpath};
+
+    fn run(tp: &Toolpath, opts: &PlanOptions) -> (Vec<PlanEvent>, PlanStats) {
+        let idx = PathIndex::new(tp, opts);
+        let mut ev = Vec::new();
+        let st = plan_stream(&idx, opts, |e| ev.push(e));
+        (ev, st)
+    }
+
+    fn duration(ev: &[PlanEvent]) -> f64 {
+        ev.iter()
+            .map(|e| match e {
+                PlanEvent::Piece(p) => p.dt,
+                PlanEvent::Stop { dwell_s, .. } => *dwell_s,
+            })
+            .sum()
+    }
+
+    #[test]
+    fn single_line_is_a_trapezoid() {
+        // 100 mm along X at 50 mm/s, 500 mm/s^2 (planned at 99 %): time = L/v + v/a.
+        let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(100.0, 0.0, 0.0)], None);
+        let opts = PlanOptions::default();
+        let (ev, st) = run(&tp, &opts);
+        let a = 500.0 * crate::feed::ACC_PLANNING_FACTOR;
+        let expect = 100.0 / 50.0 + 50.0 / a;
+        assert!((duration(&ev) - expect).abs() < 1e-9, "{}", duration(&ev));
+        assert_eq!(ev.len(), 4); // accelerate, cruise, decelerate, end
+        assert_eq!(st.stops.corner, 0);
+    }
+
+    #[test]
+    fn short_line_is_a_triangle_and_corners_stop() {
+        let tp = Toolpath::from_polyline(
+            &[
+                Vec3::ZERO,
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+            ],
+            None,
+        );
+        let opts = PlanOptions::default();
+        let (ev, st) = run(&tp, &opts);
+        let a = 500.0 * crate::feed::ACC_PLANNING_FACTOR;
+        // Each 1 mm line: accelerate over 0.5 mm and decelerate: t = 2 sqrt(2 * 0.5 / a).
+        let expect = 2.0 * 2.0 * (1.0 / a).sqrt();
+        assert!((duration(&ev) - expect).abs() < 1e-9);
+        assert_eq!(st.stops.corner, 1);
+    }
+
+    #[test]
+    fn collinear_micro_segments_plan_like_one_line_across_windows() {
+        // 20000 collinear 0.01 mm segments (several windows): same time as one 200 mm line,
+        // and the speed never dips (no oscillation).
+        let pts: Vec<Vec3> = (0..=20000)
+            .map(|i| Vec3::new(i as f64 * 0.01, 0.0, 0.0))
+            .collect();
+        let tp = Toolpath::from_polyline(&pts, None);
+        let opts = PlanOptions::default();
+        let (ev, st) = run(&tp, &opts);
+        assert!(st.windows > 1);
+        let a = 500.0 * crate::feed::ACC_PLANNING_FACTOR;
+        let expect = 200.0 / 50.0 + 50.0 / a;
+        assert!((duration(&ev) - expect).abs() < 1e-6, "{}", duration(&ev));
+        let mut peak = false;
+        for e in &ev {
+            if let PlanEvent::Piece(p) = e {
+                if p.v1 < p.v0 - 1e-9 {
+                    peak = true;
+                } else {
+                    assert!(
+                        !peak || p.v1 <= p.v0 + 1e-9,
+                        "speed rises after falling: {p:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn events_and_dwells_stop() {
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        tp.push_move(Move::feed(Line::new(Vec3::ZERO, Vec3::X), None, 1));
+        tp.push_event(crate::path::Event {
+            line: 2,
+            kind: crate::path::EventKind::Dwell(0.5),
+            text: "G4 P0.5".into(),
+        });
+        tp.push_move(Move::feed(
+            Line::new(Vec3::X, Vec3::new(2.0, 0.0, 0.0)),
+            None,
+            3,
+        ));
+        let (ev, st) = run(&tp, &PlanOptions::default());
+        assert_eq!(st.stops.dwell, 1);
+        assert!(ev
+            .iter()
+            .any(|e| matches!(e, PlanEvent::Stop { dwell_s, .. } if *dwell_s == 0.5)));
+    }
+}

@@ -1,0 +1,464 @@
+//! Setpoint interpolation: at every period `T` the next point of the path, given the arc
+//! length the planned profile ([`crate::feed`]) has reached.
+//!
+//! ## Algorithm (Wu et al., section IV, eqs. 15-20)
+//! The interpolator keeps its place on the path as a move index, the curve parameter `u_i`
+//! and its arc-length position `s_i`. For a step to the planned arc length `s*` the chord
+//! to travel is `L = s* - s_i` (the paper's `V_temp T`, eq. 15, with the tracking error of
+//! the previous step folded in, so errors never accumulate). Where the step is not small
+//! against the radius of curvature, the chord of arc `L` is shorter than `L`; the chord
+//! target is therefore the chord of arc `L` on the osculating circle at `u_i`,
+//! `2 sin(L kappa / 2) / kappa` (equal to `L` within `(L kappa)^2 / 24`; without it a step
+//! round a tight bend lands ahead of the plan, which shows in finite differences). The next
+//! parameter solves
+//! `F(xi) = L - |P(xi) - P(u_i)| = 0` (eq. 17) by Newton-Raphson (eq. 18) from the
+//! first-order Taylor guess `xi_0 = u_i + L / |P'(u_i)|` (eq. 19), stopping when the feed
+//! fluctuation `eta = 1 - |P(xi) - P(u_i)| / L` (eq. 16) is within `eta_tol` and `n`
+//! iterations have been made (eq. 20 as printed, "eta <= eta_tol and k = n").
+//!
+//! Why "and": the common reading "whichever comes first" accepts a step as soon as
+//! `|eta| <= eta_tol`, i.e. a position error up to `eta_tol L` (1e-4 mm for Wu's 0.1 % of a
+//! 0.1 mm step) that changes from step to step; a second difference turns that into
+//! `4 eta_tol L / T^2` of acceleration noise. Measured on the butterfly NURBS in Wu's
+//! setting (T = 2 ms, 50 mm/s, 500 mm/s^2): "either" gives a finite-difference acceleration
+//! of 534 mm/s^2 (1.07 x the limit) and a feed overshoot of 0.06 %; "both" gives
+//! 495 mm/s^2 (the planned 0.99 x) at the cost of always making `n` iterations.
+//! [`InterpOptions::stop_on_either`] selects the common reading.
+//! After the step, `s_i` advances by the true arc length `int |P'|` over `[u_i, xi]`
+//! (5-point Gauss-Legendre checked against its two halves, adaptive where they disagree
+//! by more than [`STEP_ARCLEN_ACCURACY_MM`]), so the
+//! setpoints follow the planned arc length even though the solve is on chords.
+//!
+//! [`InterpMethod::Taylor1`] (eq. 19 alone) and [`InterpMethod::Taylor2`] (the usual
+//! second-order Taylor step `L/|P'| - L^2 (P'.P'') / (2 |P'|^4)`) are there for comparison.
+//!
+//! ## Boundaries and degenerate curves
+//! A step that passes the end of a move continues on the next one with what is left of
+//! `L` measured in arc length (`s` is continuous across moves), so no distance is lost or
+//! counted twice; a stop point is reached exactly. The end of the program is the exact
+//! end point of the last move. Segments may have zero parametric speed at an end (a
+//! Bézier with a repeated control point, a trigonometric-spline line): there eq. 19 would
+//! divide by zero, so the guess becomes the root of `|P'| h + |P''| h^2 / 2 = L` (which
+//! reduces to eq. 19 when the speed dominates), and every Newton step is kept inside a
+//! bracket `[lo, hi]` of the root, falling back to bisection when it leaves it or when
+//! `F'` has the wrong sign. If the chord never reaches `L` on the move (a very curved
+//! remainder), the step is solved on arc length instead (Newton-bisection on
+//! `int |P'| = L`), counted as a fallback.
+//!
+//! Lines are stepped exactly (`u = (s - s0)/len`): Newton would converge in zero iterations.
+//! The chord solve lands on the planned arc length to within `(L kappa)^2` effects of the
+//! curvature's variation; where it misses by more than [`ARC_CORRECTION_TOL_MM`] (tight,
+//! fast-varying bends), a safeguarded Newton step on arc length puts the setpoint back
+//! on the plan (counted in [`InterpStats::arc_corrections`]; eta is that of the chord
+//! solve, as in the paper).
+//!
+//! `eta` is recorded on steps longer than [`ETA_MIN_STEP_MM`]: below that the rounding of
+//! the coordinates themselves dominates the ratio.
+
+mod run;
+mod setpoints;
+
+pub use run::{execute, AxisReport, PlanError, PlanReport, StageTimes};
+pub use setpoints::{FdMeter, FdStats, Setpoint, SetpointWriter};
+
+use crate::feed::PathIndex;
+use crate::geom::{
+    arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveDeriv, Segment, Vec3,
+};
+use crate::path::ExtraAxes;
+use serde::Serialize;
+
+/// Steps shorter than this (mm) are not counted in the eta statistics.
+pub const ETA_MIN_STEP_MM: f64 = 1e-6;
+/// Most Newton iterations of one step under the default (both-conditions) stopping rule.
+pub const NEWTON_HARD_CAP: usize = 20;
+/// Chord residuals within this many ulps of the coordinates end the iteration.
+const CHORD_ROUNDING_ULPS: f64 = 8.0;
+/// Largest half-angle (rad) of a step on its osculating circle solved on the chord; beyond
+/// it (a step around more than ~170 degrees of a tiny curve) the step is solved on arc
+/// length.
+const MAX_HALF_ANGLE: f64 = 1.5;
+/// Accuracy (mm) of the arc length of one step.
+pub const STEP_ARCLEN_ACCURACY_MM: f64 = 1e-11;
+/// Largest difference (mm) between the arc length a step travels and the planned one
+/// before the step is corrected on arc length: the printing resolution of the setpoints
+/// (1e-9 mm is 4e-3 mm/s^2 of finite-difference acceleration at T = 1 ms).
+pub const ARC_CORRECTION_TOL_MM: f64 = 1e-9;
+/// Iteration cap of the arc-length fallback solve.
+const FALLBACK_ITERS: usize = 60;
+/// Accuracy (mm) of the arc-length fallback solve.
+const FALLBACK_ACCURACY_MM: f64 = 1e-12;
+
+/// Gauss-Legendre 5-point nodes on [-1, 1] and weights.
+const GL5: [(f64, f64); 5] = [
+    (0.0, 0.568_888_888_888_888_9),
+    (-0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (-0.906_179_845_938_664, 0.236_926_885_056_189_08),
+    (0.906_179_845_938_664, 0.236_926_885_056_189_08),
+];
+
+/// How the next parameter is found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum InterpMethod {
+    /// Newton-Raphson on the chord length (Wu eqs. 17-20).
+    #[default]
+    Newton,
+    /// First-order Taylor step (eq. 19 alone).
+    Taylor1,
+    /// Second-order Taylor step.
+    Taylor2,
+}
+
+impl InterpMethod {
+    /// Parses a command-line name (`newton`, `taylor1`, `taylor2`).
+    pub fn from_name(s: &str) -> Option<InterpMethod> {
+        Some(match s {
+            "newton" => InterpMethod::Newton,
+            "taylor1" => InterpMethod::Taylor1,
+            "taylor2" => InterpMethod::Taylor2,
+            _ => return None,
+        })
+    }
+}
+
+/// Interpolation settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct InterpOptions {
+    /// Method. Default Newton.
+    pub method: InterpMethod,
+    /// Feed-fluctuation tolerance eta_tol as a fraction (0.001 = 0.1 %, the default).
+    pub eta_tol: f64,
+    /// Newton iterations n. Default 2.
+    pub max_iters: usize,
+    /// Stopping rule of eq. 20. `false` (default): stop when `eta <= eta_tol` **and**
+    /// `k >= n` (eq. 20 as printed; at most [`NEWTON_HARD_CAP`] iterations). `true`: stop
+    /// when either holds (the common reading, cheaper, but it leaves position errors up to
+    /// `eta_tol L` that show as finite-difference acceleration noise; see the module doc).
+    pub stop_on_either: bool,
+}
+
+impl Default for InterpOptions {
+    fn default() -> Self {
+        InterpOptions {
+            method: InterpMethod::Newton,
+            eta_tol: 0.001,
+            max_iters: 2,
+            stop_on_either: false,
+        }
+    }
+}
+
+/// Interpolation statistics.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct InterpStats {
+    /// Largest |eta| (fraction).
+    pub eta_max: f64,
+    /// Mean |eta| over the measured steps (fraction).
+    pub eta_mean: f64,
+    /// Steps whose eta was measured.
+    pub eta_steps: usize,
+    /// Steps solved on a curve (not a line).
+    pub curve_steps: usize,
+    /// Newton iterations in all.
+    pub iterations_total: usize,
+    /// Most Newton iterations in one step.
+    pub iterations_max: usize,
+    /// Steps by number of Newton iterations used (index = iterations).
+    pub iterations_histogram: Vec<usize>,
+    /// Steps solved by the arc-length fallback.
+    pub fallback_steps: usize,
+    /// Steps whose chord solution missed the planned arc length by more than
+    /// [`ARC_CORRECTION_TOL_MM`] and were corrected on arc length.
+    pub arc_corrections: usize,
+    #[serde(skip)]
+    eta_sum: f64,
+}
+
+impl InterpStats {
+    fn record(&mut self, eta: f64, len: f64, iters: usize) {
+        if len > ETA_MIN_STEP_MM {
+            let e = eta.abs();
+            self.eta_max = self.eta_max.max(e);
+            self.eta_sum += e;
+            self.eta_steps += 1;
+            self.eta_mean = self.eta_sum / self.eta_steps as f64;
+        }
+        self.iterations_total += iters;
+        self.iterations_max = self.iterations_max.max(iters);
+        if self.iterations_histogram.len() <= iters {
+            self.iterations_histogram.resize(iters + 1, 0);
+        }
+        self.iterations_histogram[iters] += 1;
+    }
+}
+
+fn gl5_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
+    let h = 0.5 * (b - a);
+    let m = 0.5 * (a + b);
+    GL5.iter()
+        .map(|&(x, w)| w * seg.deriv(m + h * x).norm())
+        .sum::<f64>()
+        * h
+}
+
+/// Arc length over one step: 5-point Gauss-Legendre, checked against the sum over the two
+/// halves; where they disagree by more than [`STEP_ARCLEN_ACCURACY_MM`] (a step across a
+/// tight bend or a zero-speed end) adaptive quadrature takes over.
+pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
+    let whole = gl5_arclen(seg, a, b);
+    let m = 0.5 * (a + b);
+    let halves = gl5_arclen(seg, a, m) + gl5_arclen(seg, m, b);
+    if (whole - halves).abs() <= STEP_ARCLEN_ACCURACY_MM {
+        halves
+    } else {
+        arclen_adaptive(seg, a, b, STEP_ARCLEN_ACCURACY_MM)
+    }
+}
+
+/// Walks the path of a [`PathIndex`] to planned arc lengths.
+pub struct Interpolator<'p, 'a> {
+    index: &'p PathIndex<'a>,
+    opts: InterpOptions,
+    cur: usize,
+    u: f64,
+    s: f64,
+    p: Vec3,
+    /// Statistics so far.
+    pub stats: InterpStats,
+}
+
+impl<'p, 'a> Interpolator<'p, 'a> {
+    /// At the start of the program.
+    pub fn new(index: &'p PathIndex<'a>, opts: InterpOptions) -> Self {
+        let p = index
+            .moves
+            .first()
+            .map_or(index.start, |m| m.segment.start());
+        Interpolator {
+            index,
+            opts,
+            cur: 0,
+            u: 0.0,
+            s: 0.0,
+            p,
+            stats: InterpStats::default(),
+        }
+    }
+
+    /// Extra-axis values at the current place.
+    fn extra(&self) -> Option<ExtraAxes> {
+        let m = self.index.moves.get(self.cur)?;
+        let (a, b) = m.extra?;
+        let f = ((self.s - m.s0) / m.len).clamp(0.0, 1.0);
+        let mut v = a;
+        for i in 0..v.len() {
+            v[i] = a[i] + (b[i] - a[i]) * f;
+        }
+        Some(v)
+    }
+
+    /// The point (and extra axes) at arc length `s_target`, which must not decrease from
+    /// call to call.
+    pub fn advance(&mut self, s_target: f64) -> (Vec3, Option<ExtraAxes>) {
+        let moves = &self.index.moves;
+        if moves.is_empty() {
+            return (self.index.start, None);
+        }
+        loop {
+            let m = &moves[self.cur];
+            let s_end = m.s0 + m.len;
+            if s_target >= s_end {
+                if s_target > s_end && self.cur + 1 < moves.len() {
+                    self.cur += 1;
+                    self.u = 0.0;
+                    self.s = moves[self.cur].s0;
+                    self.p = moves[self.cur].segment.start();
+                    continue;
+                }
+                self.u = 1.0;
+                self.s = s_end;
+                self.p = m.segment.end();
+                return (self.p, self.extra());
+            }
+            let len = s_target - self.s;
+            if len <= 0.0 {
+                return (self.p, self.extra());
+            }
+            if let Segment::Line(l) = m.segment {
+                let u = ((s_target - m.s0) / m.len).clamp(self.u, 1.0);
+                let p = l.p0.lerp(l.p1, u);
+                let eta = 1.0 - p.dist(self.p) / len;
+                self.stats.record(eta, len, 0);
+                self.u = u;
+                self.s = s_target;
+                self.p = p;
+                return (p, self.extra());
+            }
+            self.step_curve(m.segment, len);
+            return (self.p, self.extra());
+        }
+    }
+
+    fn step_curve(&mut self, seg: &Segment, arc: f64) {
+        self.stats.curve_steps += 1;
+        let (u0, p0) = (self.u, self.p);
+        // Chord of the planned arc length on the osculating circle (eq. 15's V T = chord,
+        // made exact for circles).
+        let kappa = curvature_vec_from(seg.deriv(u0), seg.deriv2(u0)).norm();
+        let half = 0.5 * arc * kappa;
+        let len = if half > MAX_HALF_ANGLE {
+            f64::INFINITY
+        } else if half > 1e-6 {
+            2.0 * half.sin() / kappa
+        } else {
+            arc
+        };
+        if seg.end().dist(p0) < len {
+            // The chord cannot reach L on this move: solve on arc length.
+            self.stats.fallback_steps += 1;
+            let xi = solve_arclen(seg, u0, arc);
+            let p = seg.eval(xi);
+            self.stats.record(0.0, 0.0, 0);
+            self.s += arclen_adaptive(seg, u0, xi, FALLBACK_ACCURACY_MM);
+            self.u = xi;
+            self.p = p;
+            return;
+        }
+        let d1 = seg.deriv(u0);
+        let d2 = seg.deriv2(u0);
+        let sp = d1.norm();
+        let acc = d2.norm();
+        let (mut lo, mut hi) = (u0, 1.0);
+        let mut xi = match self.opts.method {
+            InterpMethod::Taylor2 if sp > 0.0 && sp * sp >= acc * len => {
+                u0 + len / sp - len * len * d1.dot(d2) / (2.0 * sp.powi(4))
+            }
+            _ if sp > 0.0 && sp * sp >= acc * len => u0 + len / sp, // eq. 19
+            _ if acc > 0.0 => u0 + (-sp + (sp * sp + 2.0 * acc * len).sqrt()) / acc,
+            _ => f64::NAN,
+        };
+        if !(xi > lo && xi <= hi) {
+            xi = (u0 + 2.0 * len / sp.max(f64::MIN_POSITIVE)).min(hi);
+            if xi.is_nan() || xi <= lo {
+                xi = 0.5 * (lo + hi);
+            }
+        }
+        let mut p = seg.eval(xi);
+        let mut chord = p.dist(p0);
+        let mut eta = 1.0 - chord / len;
+        // Chord differences below this are rounding of the coordinates.
+        let rounding = CHORD_ROUNDING_ULPS * f64::EPSILON * (p0.max_abs() + len);
+        // `hi` is a bracket end only once an iterate near the start has reached L
+        // (bisecting towards the far end of the move could find a far root).
+        let mut hi_known = false;
+        let mut k = 0;
+        if self.opts.method == InterpMethod::Newton {
+            loop {
+                let tol_met = eta.abs() <= self.opts.eta_tol;
+                let n_met = k >= self.opts.max_iters;
+                let done = if self.opts.stop_on_either {
+                    tol_met || n_met
+                } else {
+                    (tol_met && n_met) || k >= NEWTON_HARD_CAP
+                };
+                if done || (len - chord).abs() <= rounding {
+                    break;
+                }
+                if chord < len {
+                    lo = xi;
+                } else {
+                    hi = xi;
+                    hi_known = true;
+                }
+                // F = L - |P - P0|, F' = -(P - P0).P' / |P - P0| (eqs. 17, 18).
+                let dp = seg.deriv(xi);
+                let fprime = if chord > 0.0 {
+                    -(p - p0).dot(dp) / chord
+                } else {
+                    0.0
+                };
+                let next = xi - (len - chord) / fprime;
+                xi = if fprime < 0.0 && next > lo && next < hi {
+                    next
+                } else if hi_known {
+                    0.5 * (lo + hi)
+                } else {
+                    (lo + (lo - u0)).min(hi)
+                };
+                p = seg.eval(xi);
+                chord = p.dist(p0);
+                eta = 1.0 - chord / len;
+                k += 1;
+            }
+        }
+        self.stats.record(eta, len, k);
+        let mut done = step_arclen(seg, u0, xi);
+        if (done - arc).abs() > ARC_CORRECTION_TOL_MM {
+            // Keep the setpoint on the planned arc length: safeguarded Newton on
+            // int |P'| = arc from the chord solution.
+            self.stats.arc_corrections += 1;
+            let (mut lo, mut hi) = if done > arc { (u0, xi) } else { (xi, 1.0) };
+            for _ in 0..FALLBACK_ITERS {
+                let sp = seg.deriv(xi).norm();
+                let next = xi - (done - arc) / sp;
+                xi = if sp > 0.0 && next > lo && next < hi {
+                    next
+                } else {
+                    0.5 * (lo + hi)
+                };
+                done = step_arclen(seg, u0, xi);
+                let err = done - arc;
+                if err.abs() <= ARC_CORRECTION_TOL_MM * 0.5 || hi - lo < 1e-16 {
+                    break;
+                }
+                if err > 0.0 {
+                    hi = xi;
+                } else {
+                    lo = xi;
+                }
+            }
+            p = seg.eval(xi);
+        }
+        self.s += done;
+        self.u = xi;
+        self.p = p;
+    }
+
+    /// Arc-length position reached (mm).
+    pub fn position_s(&self) -> f64 {
+        self.s
+    }
+}
+
+/// The parameter at which the arc length from `u0` equals `len` (Newton-bisection on
+/// `int |P'| - len`; never divides by a zero speed).
+fn solve_arclen(seg: &Segment, u0: f64, len: f64) -> f64 {
+    let (mut lo, mut hi) = (u0, 1.0);
+    let mut xi = 0.5 * (lo + hi);
+    for _ in 0..FALLBACK_ITERS {
+        let f = arclen_adaptive(seg, u0, xi, FALLBACK_ACCURACY_MM) - len;
+        if f.abs() <= FALLBACK_ACCURACY_MM {
+            break;
+        }
+        if f > 0.0 {
+            hi = xi;
+        } else {
+            lo = xi;
+        }
+        let sp = seg.deriv(xi).norm();
+        let next = xi - f / sp;
+        xi = if sp > 0.0 && next > lo && next < hi {
+            next
+        } else {
+            0.5 * (lo + hi)
+        };
+        if hi - lo < 1e-16 {
+            break;
+        }
+    }
+    xi
+}
+
+#[cfg(test)]
+mod tests;

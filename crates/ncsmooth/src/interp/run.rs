@@ -1,0 +1,275 @@
+//! The planning-and-interpolation run: index the path, stream the planned profile
+//! ([`crate::feed::plan_stream`]) through the sampler (one sample per period `T`, at
+//! `t = n T`), the [`Interpolator`] and the [`SetpointWriter`], and report what was
+//! measured. Nothing is collected: memory is bounded by the planner's window.
+//!
+//! Time: every stop (corner, event, dwell, end) is held until the next period boundary,
+//! so stop points are setpoints and the last row, at the first period boundary at or after
+//! the end of motion, is exactly the program's end point.
+
+use super::setpoints::{FdStats, Setpoint, SetpointWriter};
+use super::{InterpOptions, InterpStats, Interpolator};
+use crate::feed::{
+    plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
+    StopReason,
+};
+use crate::geom::ParamCurve;
+use crate::path::Toolpath;
+use serde::Serialize;
+use std::io::{self, Write};
+use std::time::Instant;
+
+/// Slack (in periods) when rounding a stop time up to the period grid, so a stop that
+/// lands on a boundary up to rounding is not pushed a whole period later.
+const PERIOD_ROUND_SLACK: f64 = 1e-9;
+
+/// Errors of a run.
+#[derive(Debug)]
+pub enum PlanError {
+    /// Invalid options.
+    Options(PlanOptionsError),
+    /// Writing the setpoints failed.
+    Io(io::Error),
+}
+
+impl std::fmt::Display for PlanError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PlanError::Options(e) => e.fmt(f),
+            PlanError::Io(e) => write!(f, "writing setpoints: {e}"),
+        }
+    }
+}
+impl std::error::Error for PlanError {}
+
+/// Measured maxima of one axis against its limits.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AxisReport {
+    /// Axis name.
+    pub axis: char,
+    /// Largest finite-difference velocity (mm/s).
+    pub v_max_mm_s: f64,
+    /// Velocity limit (mm/s): `--vaxis`, else the larger of feed and rapid.
+    pub v_limit_mm_s: f64,
+    /// `v_max <= v_limit` (within the printing noise).
+    pub v_within: bool,
+    /// Largest finite-difference acceleration (mm/s^2).
+    pub a_max_mm_s2: f64,
+    /// Time of the largest acceleration (s).
+    pub a_max_at_s: f64,
+    /// Acceleration limit (mm/s^2).
+    pub a_limit_mm_s2: f64,
+    /// `a_max / a_limit`.
+    pub a_ratio: f64,
+    /// `a_max <= a_limit + a_noise`.
+    pub a_within: bool,
+    /// Largest finite-difference jerk (mm/s^3); the trapezoid profile is not jerk-limited,
+    /// so this is reported without a limit.
+    pub j_max_mm_s3: f64,
+    /// Time of the largest jerk (s).
+    pub j_max_at_s: f64,
+}
+
+/// Time per stage (s).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct StageTimes {
+    /// Indexing the path (lengths, joints).
+    pub index_s: f64,
+    /// Look-ahead planning.
+    pub plan_s: f64,
+    /// Interpolation (finding the setpoints on the path).
+    pub interpolate_s: f64,
+    /// Formatting, writing and measuring the rows.
+    pub write_s: f64,
+    /// The whole run.
+    pub total_s: f64,
+}
+
+/// What a run did and measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanReport {
+    /// The limits used.
+    pub options: PlanOptions,
+    /// The interpolation settings.
+    pub interp_options: InterpOptions,
+    /// Time of the last setpoint (s).
+    pub cycle_time_s: f64,
+    /// Setpoint rows written.
+    pub setpoints: usize,
+    /// Path length planned (mm).
+    pub path_length_mm: f64,
+    /// Moves planned (zero-length moves dropped).
+    pub moves: usize,
+    /// Interpolation statistics (eta as a fraction).
+    pub interp: InterpStats,
+    /// Per-axis finite-difference maxima on the printed setpoints, against the limits.
+    pub axes: Vec<AxisReport>,
+    /// Finite-difference noise bound of the printed positions (0.5e-9 mm rounding):
+    /// acceleration `2e-9 / T^2` (mm/s^2).
+    pub fd_acc_noise_mm_s2: f64,
+    /// Same for jerk: `4e-9 / T^3` (mm/s^3).
+    pub fd_jerk_noise_mm_s3: f64,
+    /// Every axis within its velocity and acceleration limits.
+    pub limits_held: bool,
+    /// Exact stops by reason (and corners blended by the junction-deviation rule).
+    pub exact_stops: StopCounts,
+    /// Planner statistics.
+    pub planning: PlanStats,
+    /// Distance from the last printed setpoint to the program's end point (mm).
+    pub end_point_error_mm: f64,
+    /// Distance from the first printed setpoint to the program's start (mm).
+    pub start_point_error_mm: f64,
+    /// Time per stage.
+    pub stage_time_s: StageTimes,
+    /// Cycle time / compute time.
+    pub real_time_factor: f64,
+}
+
+/// Plans `path` under `popts`, interpolates it with `iopts` and writes the setpoints to
+/// `out` (use `std::io::sink()` to only measure). Returns the report and the writer.
+pub fn execute<W: Write>(
+    path: &Toolpath,
+    popts: &PlanOptions,
+    iopts: &InterpOptions,
+    out: W,
+) -> Result<(PlanReport, W), PlanError> {
+    popts.validate().map_err(PlanError::Options)?;
+    let clock = Instant::now();
+    let index = PathIndex::new(path, popts);
+    let index_s = clock.elapsed().as_secs_f64();
+    let period = popts.period_s;
+    let mut interp = Interpolator::new(&index, *iopts);
+    let mut writer = SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?;
+    let mut err: Option<io::Error> = None;
+    let (mut t, mut n) = (0.0f64, 0u64);
+    let (mut interp_s, mut write_s) = (0.0, 0.0);
+    let mut batch: Vec<(f64, f64, f64)> = Vec::new();
+    let mut points: Vec<(crate::geom::Vec3, Option<crate::path::ExtraAxes>)> = Vec::new();
+    let planning = plan_stream(&index, popts, |ev| match ev {
+        PlanEvent::Piece(pc) => {
+            // Samples of this piece, interpolated and written in two timed batches.
+            batch.clear();
+            while (n as f64) * period < t + pc.dt {
+                let time = n as f64 * period;
+                let (s, v) = pc.at(time - t);
+                batch.push((time, s, v));
+                n += 1;
+            }
+            t += pc.dt;
+            if batch.is_empty() {
+                return;
+            }
+            let c0 = Instant::now();
+            points.clear();
+            points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
+            let c1 = Instant::now();
+            for (&(time, _, v), &(p, extra)) in batch.iter().zip(&points) {
+                if err.is_none() {
+                    if let Err(e) = writer.push(&Setpoint {
+                        t: time,
+                        p,
+                        feed: v,
+                        extra,
+                    }) {
+                        err = Some(e);
+                    }
+                }
+            }
+            interp_s += (c1 - c0).as_secs_f64();
+            write_s += c1.elapsed().as_secs_f64();
+        }
+        PlanEvent::Stop { s, reason, dwell_s } => {
+            let rest_end = t + dwell_s;
+            let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
+            if reason == StopReason::End {
+                k = k.max(n);
+            }
+            let last = if reason == StopReason::End { k + 1 } else { k };
+            while n < last {
+                let c0 = Instant::now();
+                let (p, extra) = interp.advance(s);
+                let c1 = Instant::now();
+                if err.is_none() {
+                    if let Err(e) = writer.push(&Setpoint {
+                        t: n as f64 * period,
+                        p,
+                        feed: 0.0,
+                        extra,
+                    }) {
+                        err = Some(e);
+                    }
+                }
+                interp_s += (c1 - c0).as_secs_f64();
+                write_s += c1.elapsed().as_secs_f64();
+                n += 1;
+            }
+            t = k as f64 * period;
+        }
+    });
+    if let Some(e) = err {
+        return Err(PlanError::Io(e));
+    }
+    let fd: FdStats = writer.fd.stats;
+    let rows = writer.rows;
+    let last = writer.last;
+    let first = writer.first;
+    let out = writer.finish().map_err(PlanError::Io)?;
+    let total_s = clock.elapsed().as_secs_f64();
+    let acc_noise = 2e-9 / (period * period);
+    let jerk_noise = 4e-9 / (period * period * period);
+    let v_default = popts.feed_mm_s.max(popts.rapid());
+    let axes: Vec<AxisReport> = (0..3)
+        .map(|i| {
+            let v_limit = popts.vaxis_mm_s.map_or(v_default, |v| v[i]);
+            let a_limit = popts.acc_mm_s2[i];
+            AxisReport {
+                axis: ['x', 'y', 'z'][i],
+                v_max_mm_s: fd.v_max[i],
+                v_limit_mm_s: v_limit,
+                v_within: fd.v_max[i] <= v_limit * (1.0 + 1e-9) + 1e-9 / period,
+                a_max_mm_s2: fd.a_max[i],
+                a_max_at_s: fd.a_max_t[i],
+                a_limit_mm_s2: a_limit,
+                a_ratio: fd.a_max[i] / a_limit,
+                a_within: fd.a_max[i] <= a_limit + acc_noise,
+                j_max_mm_s3: fd.j_max[i],
+                j_max_at_s: fd.j_max_t[i],
+            }
+        })
+        .collect();
+    let end = index.end_point();
+    let dist = |p: Option<(f64, [f64; 3])>, q: crate::geom::Vec3| {
+        p.map_or(f64::NAN, |(_, x)| crate::geom::Vec3::from_array(x).dist(q))
+    };
+    let start = index
+        .moves
+        .first()
+        .map_or(index.start, |m| m.segment.start());
+    let cycle = last.map_or(0.0, |(t, _)| t);
+    let report = PlanReport {
+        options: popts.clone(),
+        interp_options: *iopts,
+        cycle_time_s: cycle,
+        setpoints: rows,
+        path_length_mm: index.total_len,
+        moves: index.moves.len(),
+        interp: interp.stats.clone(),
+        limits_held: axes.iter().all(|a| a.v_within && a.a_within),
+        axes,
+        fd_acc_noise_mm_s2: acc_noise,
+        fd_jerk_noise_mm_s3: jerk_noise,
+        exact_stops: planning.stops,
+        end_point_error_mm: dist(last, end),
+        start_point_error_mm: dist(first, start),
+        stage_time_s: StageTimes {
+            index_s,
+            plan_s: planning.plan_time_s,
+            interpolate_s: interp_s,
+            write_s,
+            total_s,
+        },
+        planning,
+        real_time_factor: if total_s > 0.0 { cycle / total_s } else { 0.0 },
+    };
+    Ok((report, out))
+}

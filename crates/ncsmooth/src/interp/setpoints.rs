@@ -1,0 +1,300 @@
+//! Setpoint output: the CSV writer (header `t,x,y,z,feed`, then one column per extra axis
+//! the program uses; positions `{:.9}` mm, time `{:.9}` s, feed mm/s) and the
+//! finite-difference meter that measures velocity, acceleration and jerk **on the values
+//! as printed** (each printed number is parsed back), with the actual time column (so a
+//! non-uniform step is measured correctly).
+
+use crate::geom::Vec3;
+use crate::path::{ExtraAxes, EXTRA_AXIS_NAMES};
+use serde::Serialize;
+use std::io::{self, Write};
+
+/// One setpoint.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setpoint {
+    /// Time (s).
+    pub t: f64,
+    /// Position (mm).
+    pub p: Vec3,
+    /// Planned feed (mm/s).
+    pub feed: f64,
+    /// Extra-axis values, if the program has extra axes.
+    pub extra: Option<ExtraAxes>,
+}
+
+/// Finite-difference maxima per axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FdStats {
+    /// Largest |velocity| (mm/s).
+    pub v_max: [f64; 3],
+    /// Largest |acceleration| (mm/s^2).
+    pub a_max: [f64; 3],
+    /// Time (s) of the largest acceleration.
+    pub a_max_t: [f64; 3],
+    /// Largest |jerk| (mm/s^3).
+    pub j_max: [f64; 3],
+    /// Time (s) of the largest jerk.
+    pub j_max_t: [f64; 3],
+}
+
+/// Streaming finite differences over the last four rows: velocity between rows,
+/// acceleration at a row from the two neighbouring velocities (divided by half the span),
+/// jerk between two consecutive accelerations.
+#[derive(Clone, Debug, Default)]
+pub struct FdMeter {
+    hist: [(f64, [f64; 3]); 3],
+    len: usize,
+    last_acc: Option<(f64, [f64; 3])>,
+    /// Maxima so far.
+    pub stats: FdStats,
+}
+
+impl FdMeter {
+    /// Feeds one row.
+    pub fn push(&mut self, t: f64, x: [f64; 3]) {
+        if self.len == 3 {
+            self.hist.rotate_left(1);
+            self.hist[2] = (t, x);
+        } else {
+            self.hist[self.len] = (t, x);
+            self.len += 1;
+        }
+        let n = self.len;
+        if n >= 2 {
+            let (t0, x0) = self.hist[n - 2];
+            let dt = t - t0;
+            if dt > 0.0 {
+                for i in 0..3 {
+                    self.stats.v_max[i] = self.stats.v_max[i].max(((x[i] - x0[i]) / dt).abs());
+                }
+            }
+        }
+        if n == 3 {
+            let (ta, xa) = self.hist[0];
+            let (tb, xb) = self.hist[1];
+            let (tc, xc) = self.hist[2];
+            if tb > ta && tc > tb {
+                let mut acc = [0.0; 3];
+                for i in 0..3 {
+                    let v1 = (xb[i] - xa[i]) / (tb - ta);
+                    let v2 = (xc[i] - xb[i]) / (tc - tb);
+                    acc[i] = 2.0 * (v2 - v1) / (tc - ta);
+                    if acc[i].abs() > self.stats.a_max[i] {
+                        self.stats.a_max[i] = acc[i].abs();
+                        self.stats.a_max_t[i] = tb;
+                    }
+                }
+                if let Some((tp, ap)) = self.last_acc {
+                    if tb > tp {
+                        for i in 0..3 {
+                            let j = ((acc[i] - ap[i]) / (tb - tp)).abs();
+                            if j > self.stats.j_max[i] {
+                                self.stats.j_max[i] = j;
+                                self.stats.j_max_t[i] = 0.5 * (tb + tp);
+                            }
+                        }
+                    }
+                }
+                self.last_acc = Some((tb, acc));
+            }
+        }
+    }
+}
+
+/// Writes setpoint rows as CSV and measures them.
+pub struct SetpointWriter<W: Write> {
+    out: W,
+    extra_cols: Vec<usize>,
+    line: Vec<u8>,
+    /// Finite differences of the printed rows.
+    pub fd: FdMeter,
+    /// Rows written.
+    pub rows: usize,
+    /// Last row as printed: time and position.
+    pub last: Option<(f64, [f64; 3])>,
+    /// First row as printed.
+    pub first: Option<(f64, [f64; 3])>,
+}
+
+/// Largest magnitude printed through the integer fast path of [`put`] (units of 1e-9).
+const FAST_LIMIT: f64 = 9.0e15;
+/// Powers of ten for the fixed-point formatting.
+const SCALE: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
+
+/// Formats `v` with `decimals` (at most 9) decimals into `line` and returns the value as
+/// printed. Fast path: `v` is rounded to an integer `i` of units of `10^-decimals`, which
+/// is printed exactly; the printed decimal is then `i / 10^decimals`, and that division is
+/// the correctly rounded double of the printed text (both operands are exact), i.e. what
+/// parsing the text back would give.
+fn put(line: &mut Vec<u8>, v: f64, decimals: usize) -> f64 {
+    let scale = SCALE[decimals];
+    let r = (v * scale).round();
+    if r.is_nan() || r.abs() >= FAST_LIMIT {
+        let text = format!("{v:.decimals$}");
+        line.extend_from_slice(text.as_bytes());
+        return text.parse().unwrap_or(f64::NAN);
+    }
+    let i = r as i64;
+    if i < 0 {
+        line.push(b'-');
+    }
+    // Digits of |i| from the right, with the decimal point inserted; at least one
+    // integer digit.
+    let mut u = i.unsigned_abs();
+    let mut buf = [0u8; 24];
+    let mut k = buf.len();
+    let mut written = 0usize;
+    while u > 0 || written <= decimals {
+        if written == decimals && decimals > 0 {
+            k -= 1;
+            buf[k] = b'.';
+        }
+        k -= 1;
+        buf[k] = b'0' + (u % 10) as u8;
+        u /= 10;
+        written += 1;
+    }
+    line.extend_from_slice(&buf[k..]);
+    if i == 0 {
+        // "-0.000..." is never printed; the value is zero.
+        return 0.0;
+    }
+    i as f64 / scale
+}
+
+impl<W: Write> SetpointWriter<W> {
+    /// A writer; writes the header now. `extra_axes_mask` selects the extra columns
+    /// ([`EXTRA_AXIS_NAMES`], written in lower case).
+    pub fn new(mut out: W, extra_axes_mask: u8) -> io::Result<Self> {
+        let extra_cols: Vec<usize> = (0..EXTRA_AXIS_NAMES.len())
+            .filter(|i| extra_axes_mask & (1 << i) != 0)
+            .collect();
+        let mut header = String::from("t,x,y,z,feed");
+        for &i in &extra_cols {
+            header.push(',');
+            header.push(EXTRA_AXIS_NAMES[i].to_ascii_lowercase());
+        }
+        header.push('\n');
+        out.write_all(header.as_bytes())?;
+        Ok(SetpointWriter {
+            out,
+            extra_cols,
+            line: Vec::with_capacity(128),
+            fd: FdMeter::default(),
+            rows: 0,
+            last: None,
+            first: None,
+        })
+    }
+    /// Writes one row.
+    pub fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
+        self.line.clear();
+        let t = put(&mut self.line, sp.t, 9);
+        let mut x = [0.0; 3];
+        for i in 0..3 {
+            self.line.push(b',');
+            x[i] = put(&mut self.line, sp.p[i], 9);
+        }
+        self.line.push(b',');
+        put(&mut self.line, sp.feed, 6);
+        for &i in &self.extra_cols {
+            self.line.push(b',');
+            put(&mut self.line, sp.extra.map_or(0.0, |e| e[i]), 9);
+        }
+        self.line.push(b'\n');
+        self.out.write_all(&self.line)?;
+        self.fd.push(t, x);
+        self.rows += 1;
+        if self.first.is_none() {
+            self.first = Some((t, x));
+        }
+        self.last = Some((t, x));
+        Ok(())
+    }
+    /// Flushes and returns the sink.
+    pub fn finish(mut self) -> io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fd_of_a_parabola_and_a_cubic() {
+        // x = 3 t^2 -> a = 6; y = t^3 -> jerk 6; uniform step 1 ms.
+        let mut fd = FdMeter::default();
+        for k in 0..100 {
+            let t = k as f64 * 1e-3;
+            fd.push(t, [3.0 * t * t, t * t * t, 0.0]);
+        }
+        assert!((fd.stats.a_max[0] - 6.0).abs() < 1e-6);
+        assert!((fd.stats.j_max[1] - 6.0).abs() < 1e-3);
+        assert!(fd.stats.j_max[0] < 1e-3);
+        // Non-uniform last step.
+        let mut fd = FdMeter::default();
+        for t in [0.0, 1e-3, 2e-3, 2.4e-3] {
+            fd.push(t, [3.0 * t * t, 0.0, 0.0]);
+        }
+        assert!((fd.stats.a_max[0] - 6.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fast_formatting_matches_std() {
+        let vals = [
+            0.0,
+            -0.0,
+            1.5,
+            -1.5,
+            1e-10,
+            -4e-10,
+            6e-10,
+            123.456789012345,
+            -98765.4321,
+            0.1 + 0.2,
+            2.5e-9,
+            1e7,
+            -3e9,
+            1e300,
+            f64::NAN,
+        ];
+        for v in vals {
+            let mut a = Vec::new();
+            let got = put(&mut a, v, 9);
+            let a = String::from_utf8(a).unwrap();
+            let b = format!("{v:.9}");
+            let parsed: f64 = a.parse().unwrap_or(f64::NAN);
+            if v.is_nan() {
+                assert!(got.is_nan());
+                continue;
+            }
+            // Same text up to the sign of zero and ties, and the returned value is the
+            // text parsed back.
+            let bv: f64 = b.parse().unwrap();
+            assert!(
+                (parsed - bv).abs() <= 1e-9 * (1.0 + v.abs() * 1e-7),
+                "{v}: {a} vs {b}"
+            );
+            assert_eq!(got, parsed, "{v}: {a}");
+        }
+    }
+
+    #[test]
+    fn csv_rows_and_extra_columns() {
+        let mut w = SetpointWriter::new(Vec::new(), 1 << 6).unwrap();
+        w.push(&Setpoint {
+            t: 0.0,
+            p: Vec3::new(1.0, 2.0, 3.0),
+            feed: 0.0,
+            extra: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]),
+        })
+        .unwrap();
+        let s = String::from_utf8(w.finish().unwrap()).unwrap();
+        assert_eq!(
+            s,
+            "t,x,y,z,feed,e\n0.000000000,1.000000000,2.000000000,3.000000000,0.000000,0.500000000\n"
+        );
+    }
+}

@@ -1,0 +1,274 @@
+//! Tests of the whole plan-and-interpolate run against analytic answers and measured
+//! limits.
+
+use super::*;
+use crate::feed::PlanOptions;
+use crate::geom::{Arc, CubicBez, Line};
+use crate::path::{Move, Toolpath};
+use proptest::prelude::*;
+
+/// Parsed CSV: (t, x, y, z, feed) rows.
+fn rows(csv: &[u8]) -> Vec<[f64; 5]> {
+    let s = std::str::from_utf8(csv).unwrap();
+    let mut lines = s.lines();
+    assert!(lines.next().unwrap().starts_with("t,x,y,z,feed"));
+    lines
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2], v[3], v[4]]
+        })
+        .collect()
+}
+
+fn run(tp: &Toolpath, p: &PlanOptions, i: &InterpOptions) -> (PlanReport, Vec<[f64; 5]>) {
+    let (rep, out) = execute(tp, p, i, Vec::new()).unwrap();
+    let r = rows(&out);
+    (rep, r)
+}
+
+/// The invariants every run must hold.
+fn check_invariants(tp: &Toolpath, rep: &PlanReport, r: &[[f64; 5]]) {
+    assert!(!r.is_empty());
+    for w in r.windows(2) {
+        assert!(w[1][0] > w[0][0], "time not increasing: {:?}", w);
+    }
+    for row in r {
+        assert!(row.iter().all(|v| v.is_finite()), "NaN in {row:?}");
+    }
+    let end = tp.end_point();
+    let last = r[r.len() - 1];
+    assert!(
+        Vec3::new(last[1], last[2], last[3]).dist(end) <= 1e-9,
+        "end {last:?} vs {end:?}"
+    );
+    assert!(rep.end_point_error_mm <= 1e-9);
+    assert_eq!(rep.setpoints, r.len());
+}
+
+fn assert_limits(rep: &PlanReport) {
+    for a in &rep.axes {
+        assert!(a.a_within, "{a:?}");
+        assert!(a.v_within, "{a:?}");
+    }
+}
+
+#[test]
+fn line_setpoints_follow_the_trapezoid() {
+    let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(30.0, 40.0, 0.0)], None);
+    let p = PlanOptions::default();
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_limits(&rep);
+    // 50 mm at 50 mm/s; the X axis carries 0.6 of the motion, Y 0.8: Y binds, so the
+    // tangential acceleration is 0.99 * 500 / 0.8.
+    let a = 0.99 * 500.0 / 0.8;
+    let expect = 50.0 / 50.0 + 50.0 / a;
+    assert!((rep.cycle_time_s - expect).abs() <= p.period_s + 1e-9);
+    assert!((rep.axes[1].a_max_mm_s2 - 0.99 * 500.0).abs() < 1.0);
+    assert_eq!(r[0][1..4], [0.0, 0.0, 0.0]);
+    assert_eq!(rep.interp.eta_max.max(0.0), rep.interp.eta_max);
+    assert!(rep.interp.eta_max < 1e-9);
+}
+
+fn butterfly_path() -> Toolpath {
+    let mut tp = Toolpath::new(crate::profiles::butterfly().start());
+    tp.push_move(Move::feed(crate::profiles::butterfly(), None, 1));
+    tp
+}
+
+#[test]
+fn butterfly_nurbs_wu_setting() {
+    // Wu's setting: T = 2 ms, 50 mm/s, 500 mm/s^2, eta_tol 0.1 %, n = 2.
+    let tp = butterfly_path();
+    let p = PlanOptions {
+        period_s: 0.002,
+        ..Default::default()
+    };
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert!(rep.interp.eta_max <= 0.001, "{:?}", rep.interp);
+    for a in &rep.axes {
+        assert!(a.a_ratio <= 1.01, "{a:?}");
+    }
+    assert!(rep.interp.iterations_max <= 2);
+    // Taylor steps fluctuate more than Newton's.
+    let t1 = InterpOptions {
+        method: InterpMethod::Taylor1,
+        ..Default::default()
+    };
+    let (rep1, r1) = run(&tp, &p, &t1);
+    check_invariants(&tp, &rep1, &r1);
+    assert!(rep1.interp.eta_max > rep.interp.eta_max);
+}
+
+#[test]
+fn zero_speed_ends_are_handled() {
+    // Repeated control points at both ends: zero parametric speed at t = 0 and 1.
+    let a = Vec3::ZERO;
+    let b = Vec3::new(10.0, 0.0, 0.0);
+    let c = CubicBez::new(a, a, b, b);
+    let mut tp = Toolpath::new(a);
+    tp.push_move(Move::feed(c, None, 1));
+    let c2 = CubicBez::new(b, b, Vec3::new(10.0, 10.0, 0.0), Vec3::new(10.0, 10.0, 0.0));
+    tp.push_move(Move::feed(c2, None, 2));
+    let p = PlanOptions::default();
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_limits(&rep);
+    assert_eq!(rep.exact_stops.corner, 1);
+    // Every setpoint lies on the straight pieces.
+    for row in &r {
+        assert!(
+            row[2].abs() < 1e-9 || (row[1] - 10.0).abs() < 1e-9,
+            "{row:?}"
+        );
+    }
+}
+
+#[test]
+fn helix_and_events() {
+    let arc = Arc::from_center(
+        Vec3::new(10.0, 0.0, 0.0),
+        Vec3::new(10.0, 0.0, 2.0),
+        Vec3::ZERO,
+        Vec3::Z,
+        true,
+        1,
+    )
+    .unwrap();
+    let mut tp = Toolpath::new(Vec3::ZERO);
+    tp.push_move(Move::rapid(
+        Line::new(Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)),
+        1,
+    ));
+    tp.push_event(crate::path::Event {
+        line: 2,
+        kind: crate::path::EventKind::Dwell(0.25),
+        text: "G4 P0.25".into(),
+    });
+    tp.push_move(Move::feed(arc, Some(20.0), 3));
+    let p = PlanOptions {
+        rapid_mm_s: Some(100.0),
+        ..Default::default()
+    };
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_limits(&rep);
+    assert_eq!(rep.exact_stops.dwell, 1);
+    // The feed never exceeds the programmed F on the helix.
+    let rest = r.iter().filter(|row| row[4] == 0.0).count();
+    assert!(rest as f64 >= 0.25 / p.period_s - 1.0);
+    assert!(r.iter().all(|row| row[4] <= 100.0 + 1e-6));
+}
+
+#[test]
+fn empty_program_is_one_row() {
+    let tp = Toolpath::new(Vec3::new(1.0, 2.0, 3.0));
+    let (rep, r) = run(&tp, &PlanOptions::default(), &InterpOptions::default());
+    assert_eq!(r.len(), 1);
+    assert_eq!(r[0][1..4], [1.0, 2.0, 3.0]);
+    assert_eq!(rep.cycle_time_s, 0.0);
+}
+
+#[test]
+fn junction_deviation_blends_corners() {
+    let tp = Toolpath::from_polyline(
+        &[
+            Vec3::ZERO,
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 10.0, 0.0),
+        ],
+        None,
+    );
+    let stop = run(&tp, &PlanOptions::default(), &InterpOptions::default()).0;
+    let p = PlanOptions {
+        junction_dev_mm: Some(0.01),
+        ..Default::default()
+    };
+    let (blend, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &blend, &r);
+    assert_eq!(stop.exact_stops.corner, 1);
+    assert_eq!(blend.exact_stops.corner, 0);
+    assert_eq!(blend.exact_stops.junction_blended, 1);
+    assert!(blend.cycle_time_s < stop.cycle_time_s);
+}
+
+/// A polyline with its corners replaced by tangent cubic Bézier blends (G1 joints),
+/// standing in for a smoothed path.
+fn blended(points: &[Vec3], d: f64) -> Toolpath {
+    let mut tp = Toolpath::new(points[0]);
+    let mut from = points[0];
+    for i in 1..points.len() - 1 {
+        let (a, b, c) = (points[i - 1], points[i], points[i + 1]);
+        let (Some(u1), Some(u2)) = ((b - a).normalized(), (c - b).normalized()) else {
+            continue;
+        };
+        // Reversals stay sharp corners (a blend would have a cusp inside).
+        if u1.dot(u2) < -0.98 {
+            continue;
+        }
+        let dd = d.min(0.4 * a.dist(b)).min(0.4 * b.dist(c));
+        let p0 = b - u1 * dd;
+        let p3 = b + u2 * dd;
+        if from.dist(p0) > 1e-9 {
+            tp.push_move(Move::feed(Line::new(from, p0), None, i as u32));
+        }
+        tp.push_move(Move::feed(
+            CubicBez::new(p0, b - u1 * (dd / 3.0), b + u2 * (dd / 3.0), p3),
+            None,
+            i as u32,
+        ));
+        from = p3;
+    }
+    tp.push_move(Move::feed(
+        Line::new(from, points[points.len() - 1]),
+        None,
+        points.len() as u32,
+    ));
+    tp
+}
+
+fn point() -> impl Strategy<Value = Vec3> {
+    (-50.0f64..50.0, -50.0f64..50.0, -5.0f64..5.0).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// Random polylines with degenerate features mixed in: repeated points, 1 um steps,
+/// reversals and near-collinear points.
+fn polyline() -> impl Strategy<Value = Vec<Vec3>> {
+    prop::collection::vec((point(), 0u8..6), 2..25).prop_map(|v| {
+        let mut out: Vec<Vec3> = Vec::new();
+        for (p, kind) in v {
+            let last = out.last().copied();
+            match (kind, last) {
+                (0, Some(l)) => out.push(l),
+                (1, Some(l)) => out.push(l + Vec3::new(1e-3, 0.0, 0.0)),
+                (2, Some(l)) if out.len() >= 2 => out.push(out[out.len() - 2] * 0.5 + l * 0.5),
+                (3, Some(l)) => out.push(l + (p - l) * 1e-3 + Vec3::new(0.0, 1e-6, 0.0)),
+                _ => out.push(p),
+            }
+        }
+        out
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn raw_paths_hold_limits(pts in polyline(), feed in 5.0f64..120.0, acc in 100.0f64..3000.0) {
+        let tp = Toolpath::from_polyline(&pts, None);
+        let p = PlanOptions { feed_mm_s: feed, acc_mm_s2: [acc, acc * 0.7, acc * 0.5], ..Default::default() };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_limits(&rep);
+    }
+
+    #[test]
+    fn blended_paths_hold_limits(pts in polyline(), d in 0.05f64..3.0, feed in 5.0f64..120.0) {
+        let tp = blended(&pts, d);
+        let p = PlanOptions { feed_mm_s: feed, vaxis_mm_s: Some([feed, feed * 0.8, feed * 0.3]), period_s: 0.002, ..Default::default() };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_limits(&rep);
+    }
+}

@@ -1,0 +1,86 @@
+//! Planning and interpolation on the real profiles (Wu's setting) and on a large program.
+//! Files are read from /work/shared; each test skips with a message when its file is
+//! absent.
+
+use ncsmooth::feed::PlanOptions;
+use ncsmooth::interp::{execute, InterpOptions, PlanReport};
+use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+
+fn load(rel: &str) -> Option<ncsmooth::Toolpath> {
+    // shared/ beside the repository (CI), or beside a worktree's parent directory.
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let path = format!("{dir}/../../../shared/data/{rel}");
+    let alt = format!("{dir}/../../../../shared/data/{rel}");
+    let Ok(src) = std::fs::read_to_string(&path).or_else(|_| std::fs::read_to_string(&alt)) else {
+        eprintln!("SKIP: {path} not found");
+        return None;
+    };
+    Some(
+        ncsmooth_gcode::parse_str(&src, rel, &ncsmooth_gcode::ParseOptions::default())
+            .expect("parses")
+            .toolpath,
+    )
+}
+
+fn wu(rel: &str, method: Method) -> Option<PlanReport> {
+    let tp = load(rel)?;
+    let tp = smooth(
+        &tp,
+        &SmoothOptions {
+            method,
+            tol_mm: 0.05,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .toolpath;
+    let p = PlanOptions {
+        period_s: 0.002,
+        feed_mm_s: 50.0,
+        acc_mm_s2: [500.0; 3],
+        ..Default::default()
+    };
+    let (rep, _) = execute(&tp, &p, &InterpOptions::default(), std::io::sink()).unwrap();
+    assert!(rep.interp.eta_max <= 0.001, "{rel}: {:?}", rep.interp);
+    for a in &rep.axes {
+        assert!(a.a_ratio <= 1.01, "{rel}: {a:?}");
+        assert!(a.v_within, "{rel}: {a:?}");
+    }
+    assert!(rep.end_point_error_mm <= 1e-9);
+    Some(rep)
+}
+
+#[test]
+fn wu_setting_on_profiles() {
+    for f in ["profiles/butterfly_1000.ngc", "profiles/crown.ngc"] {
+        if let Some(r) = wu(f, Method::None) {
+            // Unsmoothed micro-lines: every tangent break is an exact stop.
+            assert!(r.exact_stops.corner > 0);
+        }
+        // Wu's own methods: the micro-lines fitted and the corners blended.
+        for m in [Method::Arc, Method::Nurbs] {
+            if let Some(r) = wu(f, m) {
+                assert!(r.exact_stops.corner <= 1, "{f} {m:?}: {:?}", r.exact_stops);
+            }
+        }
+    }
+}
+
+/// Slow in debug (6.9 million setpoints): run with `--release -- --ignored`.
+#[test]
+#[ignore]
+fn stellabee_end_to_end() {
+    let Some(tp) = load("gcode/linuxcnc_stellabee1.ngc") else {
+        return;
+    };
+    let (rep, _) = execute(
+        &tp,
+        &PlanOptions::default(),
+        &InterpOptions::default(),
+        std::io::sink(),
+    )
+    .unwrap();
+    assert!(rep.limits_held, "{:?}", rep.axes);
+    assert!(rep.end_point_error_mm <= 1e-9);
+    assert!(rep.planning.max_window_points <= 1 << 16);
+}
