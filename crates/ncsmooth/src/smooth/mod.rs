@@ -31,6 +31,7 @@ pub mod arc_corner;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
 pub mod screen;
+pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
 use crate::path::{Block, ExtraAxes, Move, MoveKind, Toolpath};
@@ -99,6 +100,8 @@ pub struct SmoothOptions {
     pub arc: arc_corner::ArcOptions,
     /// Fitting of [`Method::Nurbs`]. Default: [`nurbs_hybrid::NurbsOptions::default`].
     pub nurbs: nurbs_hybrid::NurbsOptions,
+    /// Settings of [`Method::Trig`]. Default: [`trig_corner::TrigOptions::default`].
+    pub trig: trig_corner::TrigOptions,
 }
 
 impl Default for SmoothOptions {
@@ -110,6 +113,7 @@ impl Default for SmoothOptions {
             bspline: Default::default(),
             arc: Default::default(),
             nurbs: Default::default(),
+            trig: trig_corner::TrigOptions::default(),
         }
     }
 }
@@ -163,6 +167,15 @@ impl SmoothOptions {
                 share,
                 "a share in (0, 1)",
             ));
+        }
+        if let trig_corner::CornerStyle::Loop { loop_size_mm } = self.trig.corner {
+            if !(loop_size_mm > 0.0 && loop_size_mm.is_finite()) {
+                return Err(OptionsError::OutOfRange(
+                    "loop size",
+                    loop_size_mm,
+                    "a positive length in mm",
+                ));
+            }
         }
         self.bspline.validate()
     }
@@ -402,8 +415,7 @@ fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRepo
         Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),
         Method::Arc => arc_corner::smooth_arc(chain, opts, report),
         Method::Nurbs => nurbs_hybrid::smooth_nurbs(chain, opts, report),
-        // Methods are added in their own modules.
-        _ => passthrough(chain),
+        Method::Trig => trig_corner::smooth_chain_trig(chain, opts, report),
     }
 }
 
