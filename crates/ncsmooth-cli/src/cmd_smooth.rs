@@ -10,6 +10,7 @@
 use crate::{io, load, Ui};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
+use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
 use serde::Serialize;
@@ -48,6 +49,15 @@ impl From<MethodArg> for Method {
     }
 }
 
+/// Corner treatment names of `--method trig`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CornerArg {
+    /// Inside transition within the tolerance (Tao Fig. 9).
+    Round,
+    /// Outside loop through the exact corner (Tao Fig. 8); needs `--loop-size`.
+    Loop,
+}
+
 /// Arguments of `smooth`.
 #[derive(Args, Debug)]
 pub struct SmoothArgs {
@@ -75,6 +85,38 @@ pub struct SmoothArgs {
     /// Junctions turning less than this (degrees) pass through unchanged.
     #[arg(long, default_value_t = ncsmooth::verify::TANGENT_TOL_DEG)]
     pub straight_angle: f64,
+    /// Corner treatment of `--method trig`: `round` keeps the path within tol; `loop` cuts
+    /// every corner exactly with an outside loop (wire EDM, laser) bounded by `--loop-size`.
+    #[arg(long, value_enum, default_value = "round")]
+    pub corner: CornerArg,
+    /// Largest distance (mm) of a loop from its corner; required with `--corner loop`.
+    #[arg(long, required_if_eq("corner", "loop"))]
+    pub loop_size: Option<f64>,
+}
+
+impl SmoothArgs {
+    /// The smoothing options these arguments ask for (tolerance set later).
+    pub fn options(&self) -> Result<SmoothOptions> {
+        let mut o = SmoothOptions {
+            method: self.method.into(),
+            straight_angle_deg: self.straight_angle,
+            ..Default::default()
+        };
+        if self.corner == CornerArg::Loop {
+            if self.method != MethodArg::Trig {
+                return Err(io::BadInput("--corner loop needs --method trig".into()).into());
+            }
+            let size = self.loop_size.unwrap_or(f64::NAN);
+            if !(size > 0.0 && size.is_finite()) {
+                return Err(io::BadInput(format!(
+                    "--loop-size must be a positive length in mm, got {size}"
+                ))
+                .into());
+            }
+            o.trig.corner = CornerStyle::Loop { loop_size_mm: size };
+        }
+        Ok(o)
+    }
 }
 
 /// Seconds spent per stage.
@@ -103,8 +145,11 @@ pub struct SmoothRunReport {
     pub chord_mm: f64,
     /// What the method did.
     pub smoothing: SmoothReport,
-    /// Measured two-sided deviation of the written path from the program.
+    /// Measured two-sided deviation of the written path from the program (without the
+    /// loops in loop mode: the legs still reach every looped corner).
     pub deviation: Deviation,
+    /// Loop mode: the loops' own bound (corner passed, excursion within the loop size).
+    pub loops: Option<LoopCheck>,
     /// Continuity of the smoothed path (before flattening).
     pub continuity: Continuity,
     /// Continuity of the input program.
@@ -121,18 +166,22 @@ pub struct SmoothOutcome {
     pub gcode: String,
     /// Report.
     pub report: SmoothRunReport,
+    /// The smoothed path before flattening (what a controller with curve support runs).
+    pub smoothed: ncsmooth::Toolpath,
 }
 
 /// Smooths, flattens, writes and verifies a parsed program (shared with the demo).
+/// `base` carries the method and its options; its tolerance is replaced by the curve
+/// tolerance derived from `tol` and `chord`.
 pub fn smooth_program(
     name: &str,
     program: &ncsmooth_gcode::Program,
-    method: Method,
+    base: SmoothOptions,
     tol: f64,
     chord: Option<f64>,
     decimals: usize,
-    straight_angle: f64,
 ) -> Result<SmoothOutcome> {
+    let method = base.method;
     let chord = chord.unwrap_or(tol * DEFAULT_CHORD_SHARE);
     if !(tol > 0.0 && tol.is_finite()) {
         return Err(
@@ -147,13 +196,13 @@ pub fn smooth_program(
     } else {
         tol - chord
     };
-    // Method-specific option structs keep their defaults here.
-    #[allow(clippy::needless_update)]
     let opts = SmoothOptions {
-        method,
         tol_mm: curve_tol,
-        straight_angle_deg: straight_angle,
-        ..Default::default()
+        ..base
+    };
+    let loop_size = match (method, opts.trig.corner) {
+        (Method::Trig, CornerStyle::Loop { loop_size_mm }) => Some(loop_size_mm),
+        _ => None,
     };
     let mut t = Timings::default();
     let t0 = Instant::now();
@@ -174,7 +223,21 @@ pub fn smooth_program(
     let gcode = ncsmooth_gcode::write(&flat, &wopts);
     t.write_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let dev = deviation(&flat, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
+    let loops = loop_size.map(|size| check_loops(&smoothed.toolpath, size));
+    let dev = if loop_size.is_some() {
+        let flat_no_loops = without_loops(&smoothed.toolpath).flattened(chord);
+        deviation(
+            &flat_no_loops,
+            &program.toolpath,
+            tol * VERIFY_ACCURACY_SHARE,
+        )
+    } else {
+        deviation(&flat, &program.toolpath, tol * VERIFY_ACCURACY_SHARE)
+    };
+    let loops_ok = match (loops, loop_size) {
+        (Some(l), Some(size)) => l.within(size),
+        _ => true,
+    };
     let cont = continuity(&smoothed.toolpath);
     let input_cont = continuity(&program.toolpath);
     t.verify_s = t0.elapsed().as_secs_f64();
@@ -183,14 +246,19 @@ pub fn smooth_program(
         tol_mm: tol,
         curve_tol_mm: curve_tol,
         chord_mm: chord,
-        smoothing: smoothed.report,
-        within_tol: dev.within(tol),
+        smoothing: smoothed.report.clone(),
+        within_tol: dev.within(tol) && loops_ok,
         deviation: dev,
+        loops,
         continuity: cont,
         input_continuity: input_cont,
         timings: t,
     };
-    Ok(SmoothOutcome { gcode, report })
+    Ok(SmoothOutcome {
+        gcode,
+        report,
+        smoothed: smoothed.toolpath,
+    })
 }
 
 /// Runs `smooth`.
@@ -199,17 +267,19 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     let program = load(&a.file)?;
     let parse_s = t0.elapsed().as_secs_f64();
     let name = io::display_name(&a.file);
-    let mut out = smooth_program(
-        name,
-        &program,
-        a.method.into(),
-        a.tol,
-        a.chord,
-        a.decimals,
-        a.straight_angle,
-    )?;
+    let base = a.options()?;
+    let mut out = smooth_program(name, &program, base, a.tol, a.chord, a.decimals)?;
     out.report.timings.parse_s = parse_s;
     let r = &out.report;
+    if let (Some(l), Some(size)) = (&r.loops, a.loop_size) {
+        if !l.within(size) {
+            bail!(
+                "verification failed: loops pass their corners within {:.3e} mm and reach {:.6} mm (loop size {size} mm); nothing written",
+                l.max_corner_miss_mm,
+                l.max_excursion_mm
+            );
+        }
+    }
     if !r.within_tol {
         bail!(
             "verification failed: deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) exceeds tol {} mm; nothing written",

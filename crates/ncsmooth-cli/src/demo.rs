@@ -7,6 +7,8 @@ use crate::cmd_smooth::smooth_program;
 use crate::{cmd_inspect, io, Ui};
 use anyhow::Result;
 use clap::Args;
+use ncsmooth::feed::PlanOptions;
+use ncsmooth::interp::{execute, InterpOptions};
 use ncsmooth::smooth::Method;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -65,6 +67,20 @@ struct MethodResult {
     g1_joints: usize,
     g0_joints: usize,
     seconds: f64,
+    setpoints: String,
+    plan: PlanSummary,
+}
+
+/// Planning figures of one method in the demo.
+#[derive(Serialize)]
+struct PlanSummary {
+    cycle_time_s: f64,
+    setpoints: usize,
+    eta_max: f64,
+    limits_held: bool,
+    max_fd_acc_mm_s2: f64,
+    max_fd_acc_ratio: f64,
+    real_time_factor: f64,
 }
 
 #[derive(Serialize)]
@@ -75,7 +91,13 @@ struct DemoReport {
 }
 
 /// Methods the demo runs.
-const DEMO_METHODS: [Method; 3] = [Method::None, Method::Arc, Method::Nurbs];
+const DEMO_METHODS: [Method; 5] = [
+    Method::None,
+    Method::Bspline,
+    Method::Arc,
+    Method::Nurbs,
+    Method::Trig,
+];
 
 /// Runs the demo.
 pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
@@ -96,17 +118,41 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
         let out = smooth_program(
             "butterfly_1000.ngc",
             &program,
-            m,
+            ncsmooth::smooth::SmoothOptions {
+                method: m,
+                ..Default::default()
+            },
             a.tol,
             None,
             4,
-            ncsmooth::verify::TANGENT_TOL_DEG,
         )?;
         let file = format!("butterfly_{}.ngc", m.name());
         io::write_atomic(&a.out.join(&file), out.gcode.as_bytes())?;
+        // Plan the smoothed path (curves as they are) with the default machine limits.
+        let (plan, csv) = execute(
+            &out.smoothed,
+            &PlanOptions::default(),
+            &InterpOptions::default(),
+            Vec::new(),
+        )?;
+        let setpoints = format!("butterfly_{}.csv", m.name());
+        io::write_atomic(&a.out.join(&setpoints), &csv)?;
+        let plan = PlanSummary {
+            cycle_time_s: plan.cycle_time_s,
+            setpoints: plan.setpoints,
+            eta_max: plan.interp.eta_max,
+            limits_held: plan.limits_held,
+            max_fd_acc_mm_s2: plan
+                .axes
+                .iter()
+                .map(|ax| ax.a_max_mm_s2)
+                .fold(0.0, f64::max),
+            max_fd_acc_ratio: plan.axes.iter().map(|ax| ax.a_ratio).fold(0.0, f64::max),
+            real_time_factor: plan.real_time_factor,
+        };
         let r = &out.report;
         ui.status(format!(
-            "{:>8}: deviation {:.6} / {:.6} mm (tol {}), {} corners smoothed, joints G2 {} G1 {} G0 {}",
+            "{:>8}: deviation {:.6} / {:.6} mm (tol {}), {} corners smoothed, joints G2 {} G1 {} G0 {}; cycle {:.3} s at 50 mm/s, 500 mm/s^2",
             m.name(),
             r.deviation.output_to_programmed_mm,
             r.deviation.vertex_to_output_mm,
@@ -114,7 +160,8 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
             r.smoothing.corners_smoothed,
             r.continuity.g2,
             r.continuity.g1,
-            r.continuity.g0
+            r.continuity.g0,
+            plan.cycle_time_s
         ));
         methods.push(MethodResult {
             method: m.name(),
@@ -127,6 +174,8 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
             g1_joints: r.continuity.g1,
             g0_joints: r.continuity.g0,
             seconds: t0.elapsed().as_secs_f64(),
+            setpoints,
+            plan,
         });
     }
     let report = DemoReport {

@@ -172,3 +172,86 @@ fn demo_writes_its_report() {
         .all(|m| m["within_tol"] == true));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn smooth_trig_round_and_loop_corners() {
+    let d = tmpdir("trig");
+    let src = b"G21 G90 G17\nG0 X0 Y0\nM3 S1000\nG1 X20 Y0 F600\nG1 X20 Y20\nG1 X0 Y20\nG1 X0 Y5\nM5\nM2\n";
+    let f = write(&d, "sq.ngc", src);
+    let out = d.join("out.ngc");
+    let rep = d.join("r.json");
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        "trig",
+        "--tol",
+        "0.02",
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(r["within_tol"], true);
+    assert_eq!(r["smoothing"]["corners_smoothed"], 3);
+    assert!(r["loops"].is_null());
+    // Loops: the written path goes beyond tol around the corners, within the loop size.
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        "trig",
+        "--tol",
+        "0.02",
+        "--corner",
+        "loop",
+        "--loop-size",
+        "1.5",
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(r["within_tol"], true);
+    assert_eq!(r["loops"]["loops"], 3);
+    let e = r["loops"]["max_excursion_mm"].as_f64().unwrap();
+    assert!(e <= 1.5 && e > 1.0, "{e}");
+    assert!(r["loops"]["max_corner_miss_mm"].as_f64().unwrap() <= 1e-9);
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("M3") && text.contains("M5"));
+    // --corner loop without --loop-size is a usage error; so is a loop with another method.
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        "trig",
+        "--corner",
+        "loop",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        "none",
+        "--corner",
+        "loop",
+        "--loop-size",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -24,7 +24,7 @@ use crate::path::{Block, EventKind, ExtraAxes, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
 
 /// Largest tangent turn (degrees) inside one curved grid interval.
-pub const MAX_TURN_DEG: f64 = 2.5;
+pub const MAX_TURN_DEG: f64 = 1.25;
 /// Longest curved grid interval (mm).
 pub const MAX_CURVE_DS_MM: f64 = 0.5;
 /// Fewest intervals per curved move (per knot span for NURBS).
@@ -33,9 +33,14 @@ pub const MIN_CURVE_INTERVALS: usize = 2;
 pub const MAX_CURVE_INTERVALS: usize = 1 << 20;
 /// Accuracy (mm) of the arc lengths of curved intervals.
 pub const ARCLEN_ACCURACY_MM: f64 = 1e-10;
-/// Largest relative change of the curvature vector over one curved interval (its caps
-/// are checked at the ends only).
-pub const MAX_CURVATURE_CHANGE: f64 = 0.05;
+/// Largest change of the curvature vector over one curved interval (its caps are checked
+/// at the ends only), relative to the larger of the end curvatures and of the curvature
+/// floor `min_i A_i / vcap^2`: the curvature at which the move's speed cap alone uses the
+/// smallest axis acceleration. Below that floor a change is judged by the normal
+/// acceleration it can cause at the cap, `vcap^2 dK <= 0.005 A`, well inside the 1 %
+/// planning reserve; relative to zero curvature alone (the flat ends of a B-spline
+/// transition) the refinement would never stop.
+pub const MAX_CURVATURE_CHANGE: f64 = 0.005;
 /// Smallest parameter step of the interval refinement.
 const MIN_PARAM_STEP: f64 = 1e-9;
 /// Parameter offset used to read the curvature next to a zero-speed end.
@@ -445,9 +450,15 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     stack.push((t, tt, kk));
                 }
                 let max_turn = MAX_TURN_DEG.to_radians();
+                let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
+                let k_floor = if m.vcap_mm_s > 0.0 && m.vcap_mm_s.is_finite() {
+                    a_min / (m.vcap_mm_s * m.vcap_mm_s)
+                } else {
+                    0.0
+                };
                 while let Some(&(t1, tt1, kk1)) = stack.last() {
                     let &(t0, tt0, kk0) = params.last().expect("non-empty");
-                    let kmax = kk0.norm().max(kk1.norm());
+                    let kmax = kk0.norm().max(kk1.norm()).max(k_floor);
                     let split = params.len() + stack.len() < MAX_CURVE_INTERVALS
                         && t1 - t0 > MIN_PARAM_STEP
                         && (tt0.angle_to(tt1) > max_turn

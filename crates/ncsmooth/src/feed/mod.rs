@@ -77,8 +77,8 @@ use serde::Serialize;
 /// Fraction of the acceleration limits the planner uses (see the module doc).
 pub const ACC_PLANNING_FACTOR: f64 = 0.99;
 /// Fraction of the per-axis velocity limits the planner uses: they are checked at grid
-/// points, and inside a curved interval (tangent turn at most 2.5 degrees) a tangent
-/// component can exceed its end values by up to `1 - cos(1.25 deg)`, 2.4e-4.
+/// points, and inside a curved interval (tangent turn at most [`grid::MAX_TURN_DEG`]) a
+/// tangent component can exceed its end values by about `1 / cos(turn / 2) - 1`, 6e-5.
 pub const VAXIS_PLANNING_FACTOR: f64 = 0.999;
 
 /// Machine limits and planning settings.

@@ -1,6 +1,6 @@
 //! Geometry: a `Copy` vector type, the curve capability traits and the curve kinds
-//! (line, arc/helix, cubic Bézier, NURBS), gathered in the [`Segment`] enum; global curve
-//! interpolation ([`interp`]) on a banded solver ([`banded`]).
+//! (line, arc/helix, cubic Bézier, NURBS, cubic trigonometric spline), gathered in the
+//! [`Segment`] enum; global curve interpolation ([`interp`]) on a banded solver ([`banded`]).
 
 mod arc;
 pub mod banded;
@@ -10,6 +10,7 @@ mod line;
 mod nurbs;
 mod segment;
 mod traits;
+mod trig_spline;
 mod vec3;
 
 pub use arc::Arc;
@@ -18,4 +19,5 @@ pub use line::Line;
 pub use nurbs::{Nurbs, MAX_DEGREE};
 pub use segment::Segment;
 pub use traits::*;
+pub use trig_spline::{basis as trig_basis, TrigSpline};
 pub use vec3::{Aabb, Vec3};

@@ -3,7 +3,7 @@
 
 use super::traits::*;
 use super::vec3::{Aabb, Vec3};
-use super::{Arc, CubicBez, Line, Nurbs};
+use super::{Arc, CubicBez, Line, Nurbs, TrigSpline};
 use serde::{Deserialize, Serialize};
 
 /// One piece of a toolpath.
@@ -17,6 +17,8 @@ pub enum Segment {
     CubicBez(CubicBez),
     /// General NURBS (fitted curves).
     Nurbs(Box<Nurbs>),
+    /// Cubic trigonometric spline (Tao et al.: free curves, corner transitions, loops).
+    Trig(TrigSpline),
 }
 
 macro_rules! dispatch {
@@ -25,6 +27,7 @@ macro_rules! dispatch {
             Segment::Line($c) => $e,
             Segment::Arc($c) => $e,
             Segment::CubicBez($c) => $e,
+            Segment::Trig($c) => $e,
             Segment::Nurbs($c) => {
                 let $c: &Nurbs = $c;
                 $e
@@ -41,6 +44,7 @@ impl Segment {
             Segment::Arc(_) => "arc",
             Segment::CubicBez(_) => "cubic_bezier",
             Segment::Nurbs(_) => "nurbs",
+            Segment::Trig(_) => "trig",
         }
     }
     /// Length: exact for lines and arcs, else within `accuracy` (mm).
@@ -152,6 +156,11 @@ impl From<Arc> for Segment {
 impl From<CubicBez> for Segment {
     fn from(c: CubicBez) -> Segment {
         Segment::CubicBez(c)
+    }
+}
+impl From<TrigSpline> for Segment {
+    fn from(c: TrigSpline) -> Segment {
+        Segment::Trig(c)
     }
 }
 impl From<Nurbs> for Segment {

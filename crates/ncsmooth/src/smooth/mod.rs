@@ -28,8 +28,10 @@
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
 pub mod arc_corner;
+pub mod bspline_corner;
 pub mod nurbs_hybrid;
 pub mod screen;
+pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
 use crate::path::{Block, ExtraAxes, Move, MoveKind, Toolpath};
@@ -38,6 +40,9 @@ use serde::Serialize;
 
 /// Accuracy (mm) of arc-length evaluations used to place extra-axis values.
 const EXTRA_AXIS_ARCLEN_ACCURACY: f64 = 1e-9;
+
+/// Expected ratio of output to input blocks for the corner methods (capacity hint).
+const OUTPUT_GROWTH: usize = 3;
 
 /// Smoothing method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
@@ -89,10 +94,14 @@ pub struct SmoothOptions {
     /// Junctions turning by less than this (degrees) pass through unchanged. Default:
     /// [`TANGENT_TOL_DEG`], the angle the continuity audit already calls tangent.
     pub straight_angle_deg: f64,
+    /// Settings of [`Method::Bspline`]. Default: [`bspline_corner::BsplineOptions::default`].
+    pub bspline: bspline_corner::BsplineOptions,
     /// Corner arcs of [`Method::Arc`] and [`Method::Nurbs`]. Default: [`arc_corner::ArcOptions::default`].
     pub arc: arc_corner::ArcOptions,
     /// Fitting of [`Method::Nurbs`]. Default: [`nurbs_hybrid::NurbsOptions::default`].
     pub nurbs: nurbs_hybrid::NurbsOptions,
+    /// Settings of [`Method::Trig`]. Default: [`trig_corner::TrigOptions::default`].
+    pub trig: trig_corner::TrigOptions,
 }
 
 impl Default for SmoothOptions {
@@ -101,8 +110,10 @@ impl Default for SmoothOptions {
             method: Method::None,
             tol_mm: 0.01,
             straight_angle_deg: TANGENT_TOL_DEG,
+            bspline: Default::default(),
             arc: Default::default(),
             nurbs: Default::default(),
+            trig: trig_corner::TrigOptions::default(),
         }
     }
 }
@@ -157,7 +168,16 @@ impl SmoothOptions {
                 "a share in (0, 1)",
             ));
         }
-        Ok(())
+        if let trig_corner::CornerStyle::Loop { loop_size_mm } = self.trig.corner {
+            if !(loop_size_mm > 0.0 && loop_size_mm.is_finite()) {
+                return Err(OptionsError::OutOfRange(
+                    "loop size",
+                    loop_size_mm,
+                    "a positive length in mm",
+                ));
+            }
+        }
+        self.bspline.validate()
     }
 }
 
@@ -332,9 +352,17 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
         tol_mm: opts.tol_mm,
         ..Default::default()
     };
+    // Corner methods replace one move by up to three (trimmed line, two curve pieces).
+    let growth = if opts.method == Method::None {
+        1
+    } else {
+        OUTPUT_GROWTH
+    };
     let mut out = Toolpath {
-        blocks: Vec::with_capacity(tp.blocks.len()),
-        ..tp.clone()
+        blocks: Vec::with_capacity(tp.blocks.len() * growth),
+        start: tp.start,
+        units: tp.units,
+        extra_axes_mask: tp.extra_axes_mask,
     };
     let mut run: Vec<Move> = Vec::new();
     let mut last_extra: Option<ExtraAxes> = None;
@@ -384,10 +412,10 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
 fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
     match opts.method {
         Method::None => passthrough(chain),
+        Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),
         Method::Arc => arc_corner::smooth_arc(chain, opts, report),
         Method::Nurbs => nurbs_hybrid::smooth_nurbs(chain, opts, report),
-        // Methods are added in their own modules.
-        _ => passthrough(chain),
+        Method::Trig => trig_corner::smooth_chain_trig(chain, opts, report),
     }
 }
 
