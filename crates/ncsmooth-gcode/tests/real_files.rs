@@ -1,4 +1,4 @@
-//! The 13 real CAM files of `/work/shared/data/gcode` (and the benchmark profiles) parse,
+//! The 13 real CAM files of `../shared/data/gcode` (and the benchmark profiles) parse,
 //! with the move counts of the table in `SOURCES.md`.
 //!
 //! The data is GPL-licensed and lives outside the repository (`../shared` from the
@@ -39,7 +39,7 @@ struct Expect {
     ours: [usize; 5],
 }
 
-// From the "Measured statistics" table of /work/shared/data/gcode/SOURCES.md. The
+// From the "Measured statistics" table of ../shared/data/gcode/SOURCES.md. The
 // script behind it skipped blocks with G4, G10, G43, G92 or G28.1/G30.1 (but not G28),
 // did not count E-only moves and did not evaluate `#2`.
 const EXPECT: [Expect; 13] = [

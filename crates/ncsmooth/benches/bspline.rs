@@ -2,7 +2,7 @@
 //! `butterfly_1000.ngc` and `camotics_tiger.nc`, parsed outside the timed loop. Two
 //! figures per file: the whole `smooth()` (chain split, transitions, assembly of the output
 //! program) and the method alone on pre-split chains. Throughput elements = corners
-//! smoothed. Skips when `/work/shared` is absent.
+//! smoothed. Skips when `../shared` is absent.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use ncsmooth::path::{Block, Move, MoveKind, Toolpath};

@@ -1,5 +1,5 @@
 //! `--method bspline` on real files: the paper's butterfly (tol 0.05 mm) and 3-D hexagon,
-//! and every file of `/work/shared/data/gcode` at tol 0.01 mm. Checks: measured two-sided
+//! and every file of `../shared/data/gcode` at tol 0.01 mm. Checks: measured two-sided
 //! deviation within tol (to tol * 1e-3), every transition joint G2 except where a transition
 //! ends on a programmed exact stop or at a closed loop's lead-in/out, nothing of the program
 //! lost (events, rapids, final point).
@@ -14,32 +14,9 @@ use ncsmooth::smooth::bspline_corner::curvature_profile;
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::verify::{continuity_joints, deviation, JointClass};
 use std::collections::HashSet;
-use std::path::PathBuf;
 
-fn data_file(sub: &str) -> Option<PathBuf> {
-    // `../shared` from the workspace root; a git worktree elsewhere may point
-    // NCSMOOTH_SHARED_DATA at the data directory instead.
-    let base = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    let base = match std::env::var_os("NCSMOOTH_SHARED_DATA") {
-        Some(d) if !base.is_dir() => PathBuf::from(d),
-        _ => base,
-    };
-    let p = base.join(sub);
-    if p.is_file() {
-        Some(p)
-    } else {
-        println!("SKIP: test data {} not found", p.display());
-        None
-    }
-}
-
-fn parse(p: &std::path::Path) -> Toolpath {
-    let src = std::fs::read_to_string(p)
-        .unwrap_or_else(|_| String::from_utf8_lossy(&std::fs::read(p).unwrap()).into_owned());
-    ncsmooth_gcode::parse_str(&src, &p.display().to_string(), &Default::default())
-        .unwrap_or_else(|e| panic!("{e}"))
-        .toolpath
-}
+mod common;
+use common::{data_path as data_file, parse_file as parse};
 
 fn key(p: Vec3) -> [u64; 3] {
     [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]

@@ -11,28 +11,10 @@ use ncsmooth::geom::{ParamCurve, Segment};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::verify::{continuity, deviation};
 use ncsmooth::Toolpath;
-use ncsmooth_gcode::{parse_bytes, ParseOptions};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-/// `../shared/data/SUB` from the workspace root (also from a worktree one level deeper).
-fn data(sub: &str) -> Option<PathBuf> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    for up in ["../../../shared/data", "../../../../shared/data"] {
-        let d = root.join(up).join(sub);
-        if d.exists() {
-            return Some(d);
-        }
-    }
-    println!("SKIP: ../shared/data/{sub} not found");
-    None
-}
-
-fn load(p: &Path) -> Toolpath {
-    let bytes = std::fs::read(p).unwrap();
-    parse_bytes(&bytes, &p.display().to_string(), &ParseOptions::default())
-        .unwrap_or_else(|e| panic!("{e}"))
-        .toolpath
-}
+mod common;
+use common::{data_path as data, parse_file as load};
 
 /// Smooths `tp` and checks the contract; returns deviation / tol and the report.
 fn check(name: &str, tp: &Toolpath, method: Method, tol: f64) -> (f64, SmoothReport) {

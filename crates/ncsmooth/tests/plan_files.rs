@@ -1,26 +1,13 @@
 //! Planning and interpolation on the real profiles (Wu's setting) and on a large program.
-//! Files are read from /work/shared; each test skips with a message when its file is
+//! Files are read from ../shared (beside the workspace); each test skips with a message when its file is
 //! absent.
 
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::interp::{execute, InterpOptions, PlanReport};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions};
 
-fn load(rel: &str) -> Option<ncsmooth::Toolpath> {
-    // shared/ beside the repository (CI), or beside a worktree's parent directory.
-    let dir = env!("CARGO_MANIFEST_DIR");
-    let path = format!("{dir}/../../../shared/data/{rel}");
-    let alt = format!("{dir}/../../../../shared/data/{rel}");
-    let Ok(src) = std::fs::read_to_string(&path).or_else(|_| std::fs::read_to_string(&alt)) else {
-        eprintln!("SKIP: {path} not found");
-        return None;
-    };
-    Some(
-        ncsmooth_gcode::parse_str(&src, rel, &ncsmooth_gcode::ParseOptions::default())
-            .expect("parses")
-            .toolpath,
-    )
-}
+mod common;
+use common::load;
 
 fn wu(rel: &str, method: Method) -> Option<PlanReport> {
     wu_with(rel, method, None)

@@ -1,5 +1,5 @@
 //! `--method trig` on the benchmark profiles and on every real G-code file of
-//! /work/shared/data (skipped with a message when absent): the two-sided deviation holds
+//! ../shared/data (skipped with a message when absent): the two-sided deviation holds
 //! `tol` (round corners), loops pass their corners and stay within the loop size, and
 //! there is no tangent break except the counted stops and the chain ends at events.
 //! The large files are `#[ignore]`d (slow in debug; the lead runs them in release).
@@ -11,34 +11,9 @@ use ncsmooth::smooth::trig_corner::{
 use ncsmooth::smooth::{smooth, Method, SmoothOptions};
 use ncsmooth::verify::{continuity, deviation};
 use ncsmooth::{Block, MoveKind, Toolpath};
-use ncsmooth_gcode::{parse_str, ParseOptions};
-use std::path::PathBuf;
 
-/// `/work/shared/data` relative to the crate, or `$NCSMOOTH_DATA` when set (worktrees
-/// live deeper than the main checkout).
-fn data(rel: &str) -> PathBuf {
-    let base = std::env::var_os("NCSMOOTH_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../../shared/data/"
-            ))
-        });
-    base.join(rel)
-}
-
-fn load(rel: &str) -> Option<Toolpath> {
-    let p = data(rel);
-    let Ok(src) = std::fs::read_to_string(&p) else {
-        eprintln!("SKIP {rel}: {} not found", p.display());
-        return None;
-    };
-    match parse_str(&src, rel, &ParseOptions::default()) {
-        Ok(prog) => Some(prog.toolpath),
-        Err(e) => panic!("{rel} does not parse: {e}"),
-    }
-}
+mod common;
+use common::{data_path, load};
 
 /// Feed-to-feed joints across a non-move block (an event ends a chain there, and chain
 /// ends are kept exactly, so such a joint may be a tangent break of the program itself).
@@ -199,11 +174,10 @@ fn all_gcode_files_with_loops() {
 
 #[test]
 fn every_file_is_listed() {
-    let dir = data("gcode");
-    let Ok(rd) = std::fs::read_dir(&dir) else {
-        eprintln!("SKIP: {} not found", dir.display());
+    let Some(dir) = data_path("gcode") else {
         return;
     };
+    let rd = std::fs::read_dir(&dir).expect("readable data directory");
     for e in rd.flatten() {
         let name = e.file_name().to_string_lossy().to_string();
         if name.ends_with(".md") {
