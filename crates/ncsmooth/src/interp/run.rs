@@ -6,6 +6,12 @@
 //! Time: every stop (corner, event, dwell, end) is held until the next period boundary,
 //! so stop points are setpoints and the last row, at the first period boundary at or after
 //! the end of motion, is exactly the program's end point.
+//!
+//! Jerk mode ([`crate::feed::jerk`]): the samples are taken on the moving average of the
+//! planned arc length over the window `W` (exact integrals of the constant-acceleration
+//! pieces over the window, kept in a queue of at most `W` of plan), each stop held `W`
+//! longer; a sample whose whole window is at rest is exactly the rest point. The feed
+//! column is the filtered speed.
 
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
 use super::{InterpOptions, InterpStats, Interpolator};
