@@ -64,8 +64,9 @@ pub struct PlanArgs {
     /// Per-axis acceleration limit (mm/s^2): one value or x,y,z.
     #[arg(long, default_value = "500")]
     pub acc: String,
-    /// Per-axis jerk limit (mm/s^3): one value or x,y,z. NOT IMPLEMENTED: the profile is
-    /// the trapezoid (linear acceleration); giving it is an error.
+    /// Per-axis jerk limit (mm/s^3): one value or x,y,z. Given: a jerk-limited S-curve
+    /// (the trapezoid under tighter caps, averaged over a time window); without it the
+    /// profile is the trapezoid (linear acceleration).
     #[arg(long)]
     pub jerk: Option<String>,
     /// Per-axis velocity limit (mm/s): one value or x,y,z [default: none].
@@ -179,12 +180,6 @@ fn write_samples(path: &Path, tp: &Toolpath, ds: f64) -> Result<()> {
 /// Runs `plan`.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let t0 = Instant::now();
-    if a.jerk.is_some() {
-        return Err(io::BadInput(
-            "--jerk: jerk-limited (S-curve) planning is not implemented yet; the profile is the trapezoid".into(),
-        )
-        .into());
-    }
     let (toolpath, name) = if a.file == BUILTIN_BUTTERFLY {
         (builtin_butterfly(), a.file.clone())
     } else {
@@ -198,6 +193,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         feed_mm_s: a.feed,
         rapid_mm_s: a.rapid,
         acc_mm_s2: axes("acc", &a.acc)?,
+        jerk_mm_s3: a.jerk.as_deref().map(|v| axes("jerk", v)).transpose()?,
         vaxis_mm_s: a.vaxis.as_deref().map(|v| axes("vaxis", v)).transpose()?,
         period_s: a.period,
         chord_error_mm: a.chord_error,
@@ -270,8 +266,16 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     }
     let r = &run.plan;
     let worst = r.axes.iter().map(|x| x.a_ratio).fold(0.0f64, f64::max);
+    let jerk = r
+        .axes
+        .iter()
+        .filter_map(|x| x.j_ratio)
+        .reduce(f64::max)
+        .map_or(String::new(), |j| {
+            format!(", worst axis jerk {j:.4} x limit")
+        });
     ui.status(format!(
-        "{name}: cycle {:.3} s, {} setpoints, eta max {:.3e} %, worst axis acc {:.4} x limit, stops: {} corner {} event {} dwell; real-time factor {:.0} (end to end {:.0})",
+        "{name}: cycle {:.3} s, {} setpoints, eta max {:.3e} %, worst axis acc {:.4} x limit{jerk}, stops: {} corner {} event {} dwell; real-time factor {:.0} (end to end {:.0})",
         r.cycle_time_s,
         r.setpoints,
         r.interp.eta_max * 100.0,

@@ -255,3 +255,44 @@ fn smooth_trig_round_and_loop_corners() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn plan_with_jerk_reports_it_held() {
+    let d = tmpdir("plan-jerk");
+    let rep = d.join("r.json");
+    let csv = d.join("s.csv");
+    let o = run(&[
+        "plan",
+        "builtin:butterfly",
+        "--quiet",
+        "--period",
+        "0.002",
+        "--jerk",
+        "5000,4000,3000",
+        "--setpoints",
+        csv.to_str().unwrap(),
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    let p = if r.get("plan").is_some() {
+        &r["plan"]
+    } else {
+        &r
+    };
+    assert_eq!(p["limits_held"], true);
+    for (a, lim) in p["axes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip([5000.0, 4000.0, 3000.0])
+    {
+        assert_eq!(a["j_limit_mm_s3"].as_f64(), Some(lim));
+        assert!(a["j_ratio"].as_f64().unwrap() <= 1.0, "{a}");
+    }
+    // A malformed jerk is a usage error.
+    let o = run(&["plan", "builtin:butterfly", "--jerk", "1,2"]);
+    assert_eq!(o.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&d);
+}

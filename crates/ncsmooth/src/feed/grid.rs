@@ -255,8 +255,18 @@ impl<'a> PathIndex<'a> {
 
 /// The caps the planner uses for `opts`.
 pub fn caps_of(opts: &PlanOptions) -> Caps {
+    let jerk = opts.jerk_caps();
+    // Jerk mode: the curvature term gets its share of the acceleration limits.
+    let share = if jerk.is_some() {
+        super::jerk::CURVATURE_ACC_SHARE
+    } else {
+        1.0
+    };
     Caps {
-        acc: opts.acc_mm_s2.map(|a| a * super::ACC_PLANNING_FACTOR),
+        jerk,
+        acc: opts
+            .acc_mm_s2
+            .map(|a| a * super::ACC_PLANNING_FACTOR * share),
         vaxis: opts
             .vaxis_mm_s
             .map(|v| v.map(|x| x * super::VAXIS_PLANNING_FACTOR)),
@@ -296,9 +306,48 @@ fn joint_after(a: &Segment, b: &Segment, opts: &PlanOptions, caps: &Caps) -> Aft
             },
         };
     }
+    let (ka, kb) = (curvature_at(a, 1.0), curvature_at(b, 0.0));
+    let jerk_cap = caps.jerk.map_or(f64::INFINITY, |j| {
+        j.speed_cap_x(
+            abs_max(ka, kb),
+            abs_max(end_rate(a, true), end_rate(b, false)),
+            kb - ka,
+        )
+    });
     After::Continue {
-        x_cap: g1_joint_cap_x(curvature_at(a, 1.0), curvature_at(b, 0.0), caps),
+        x_cap: g1_joint_cap_x(ka, kb, caps).min(jerk_cap),
         blended: false,
+    }
+}
+
+/// Componentwise largest magnitude.
+fn abs_max(a: Vec3, b: Vec3) -> Vec3 {
+    Vec3::new(
+        a[0].abs().max(b[0].abs()),
+        a[1].abs().max(b[1].abs()),
+        a[2].abs().max(b[2].abs()),
+    )
+}
+
+/// Parameter step of the curvature-rate probe at a move's end.
+const RATE_PROBE_PARAM: f64 = 1e-4;
+
+/// Curvature rate `dK/ds` (1/mm^2) at the end (`at_end`) or start of a move, by a finite
+/// difference over the last (first) [`RATE_PROBE_PARAM`] of its parameter.
+fn end_rate(seg: &Segment, at_end: bool) -> Vec3 {
+    if matches!(seg, Segment::Line(_)) {
+        return Vec3::ZERO;
+    }
+    let (a, b) = if at_end {
+        (1.0 - RATE_PROBE_PARAM, 1.0)
+    } else {
+        (0.0, RATE_PROBE_PARAM)
+    };
+    let ds = crate::interp::step_arclen(seg, a, b);
+    if ds > 0.0 {
+        (curvature_at(seg, b) - curvature_at(seg, a)) / ds
+    } else {
+        Vec3::ZERO
     }
 }
 
@@ -309,6 +358,9 @@ pub struct GridPoint {
     pub s: f64,
     /// Static cap on `v^2`.
     pub x_cap: f64,
+    /// The geometric cap on `v^2` (the static cap without a stop's zero), the source of
+    /// the jerk mode's dilated caps.
+    pub x_src: f64,
     /// The machine stops here (a window end).
     pub stop: Option<(StopReason, f64)>,
 }
@@ -353,7 +405,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
             Segment::Line(l) => {
                 let t = (l.p1 - l.p0).normalized().unwrap_or(Vec3::X);
                 let cap = point_cap_x(t, Vec3::ZERO, m.vcap_mm_s, caps);
-                let iv = Interval {
+                let mut iv = Interval {
                     ds: m.len,
                     straight: true,
                     u_line: line_acc(t, caps),
@@ -363,7 +415,22 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     t1: t,
                     k1: Vec3::ZERO,
                 };
-                (cap, vec![(iv, cap)])
+                let Some(j) = caps.jerk else {
+                    return (cap, vec![(iv, cap)]);
+                };
+                // Jerk mode: the scalar tangential limit, and lines cut so that the
+                // dilated caps are resolved along them (see `super::jerk`).
+                iv.u_line = j.u_max_mm_s2;
+                let cuts = super::jerk::line_cuts(m.len);
+                let mut list = Vec::with_capacity(cuts.len() + 1);
+                let mut prev = 0.0;
+                for c in cuts.into_iter().chain(std::iter::once(m.len)) {
+                    if c > prev {
+                        list.push((Interval { ds: c - prev, ..iv }, cap));
+                        prev = c;
+                    }
+                }
+                (cap, list)
             }
             seg => {
                 let sp = spans(seg);
@@ -405,8 +472,8 @@ impl<'p, 'a> GridGen<'p, 'a> {
                         stack.pop();
                     }
                 }
-                let start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);
-                let mut out = Vec::with_capacity(params.len());
+                let mut start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);
+                let mut out: Vec<(Interval, f64)> = Vec::with_capacity(params.len());
                 let mut s_acc = 0.0;
                 let last = params.len() - 1;
                 for (i, w) in params.windows(2).enumerate() {
@@ -434,6 +501,27 @@ impl<'p, 'a> GridGen<'p, 'a> {
                         ));
                     } else if let Some(last) = out.last_mut() {
                         last.1 = last.1.min(cap);
+                    }
+                }
+                if let (Some(j), false) = (caps.jerk, out.is_empty()) {
+                    // Jerk caps at every point: its curvature, and the curvature rate
+                    // (finite difference over each interval) of the intervals beside it.
+                    let n = out.len();
+                    let rates: Vec<Vec3> =
+                        out.iter().map(|(iv, _)| (iv.k1 - iv.k0) / iv.ds).collect();
+                    let rate = |i: usize| rates[i];
+                    for p in 0..=n {
+                        let r = abs_max(
+                            p.checked_sub(1).map_or(Vec3::ZERO, rate),
+                            if p < n { rate(p) } else { Vec3::ZERO },
+                        );
+                        let k = if p == 0 { out[0].0.k0 } else { out[p - 1].0.k1 };
+                        let c = j.speed_cap_x(k, r, Vec3::ZERO);
+                        if p == 0 {
+                            start_cap = start_cap.min(c);
+                        } else {
+                            out[p - 1].1 = out[p - 1].1.min(c);
+                        }
                     }
                 }
                 (start_cap, out)
@@ -473,6 +561,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 let (start_cap, mut list) = self.move_intervals(j);
                 if let Some(p) = pts.last_mut() {
                     p.x_cap = p.x_cap.min(start_cap);
+                    p.x_src = p.x_src.min(start_cap);
                 }
                 list.reverse();
                 self.pending = list;
@@ -484,6 +573,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
             let mut pt = GridPoint {
                 s,
                 x_cap: cap,
+                x_src: cap,
                 stop: None,
             };
             if self.pending.is_empty() {
@@ -496,6 +586,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     }
                     After::Continue { x_cap, blended } => {
                         pt.x_cap = pt.x_cap.min(x_cap);
+                        pt.x_src = pt.x_src.min(x_cap);
                         self.blended += blended as usize;
                     }
                 }

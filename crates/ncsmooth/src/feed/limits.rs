@@ -21,6 +21,8 @@ pub struct Caps {
     pub period_s: f64,
     /// Chord error (mm).
     pub chord_error_mm: f64,
+    /// Jerk mode (see [`super::jerk`]): the scalar tangential limit and the jerk caps.
+    pub jerk: Option<super::jerk::JerkCaps>,
 }
 
 /// Largest `x = v^2` allowed at a point with unit tangent `t`, curvature vector `k` (1/mm)
@@ -150,6 +152,13 @@ impl Interval {
                 rows.n += 1;
             }
         };
+        if let Some(j) = caps.jerk {
+            // Jerk mode: the plan's only acceleration constraint is |u| = |q - p| / h <= U
+            // (the axes' share of the curvature term is a speed cap; see `super::jerk`).
+            push(-1.0, 1.0, h * j.u_max_mm_s2);
+            push(1.0, -1.0, h * j.u_max_mm_s2);
+            return rows;
+        }
         for i in 0..3 {
             let ha = h * caps.acc[i];
             let (t0, k0, t1, k1) = (self.t0[i], self.k0[i], self.t1[i], self.k1[i]);
@@ -232,6 +241,7 @@ mod tests {
             vaxis: None,
             period_s: 0.001,
             chord_error_mm: 0.001,
+            jerk: None,
         }
     }
 

@@ -6,6 +6,8 @@ use super::grid::{GridGen, GridPoint, PathIndex};
 use super::limits::Interval;
 use super::{PlanOptions, StopCounts, StopReason};
 use serde::Serialize;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 use std::time::Instant;
 
 /// Grid points a window starts with; a window grows (doubles) when no point in it is
@@ -76,7 +78,7 @@ pub struct PlanStats {
 }
 
 fn backward(
-    pts: &[GridPoint],
+    pts: &[f64],
     ivs: &[Interval],
     caps: &super::limits::Caps,
     bwd: &mut Vec<f64>,
@@ -89,10 +91,96 @@ fn backward(
     free.resize(n, false);
     bwd[n - 1] = 0.0;
     for k in (0..n - 1).rev() {
-        let (p, f) = ivs[k].backward(pts[k].x_cap, bwd[k + 1], caps);
+        let (p, f) = ivs[k].backward(pts[k], bwd[k + 1], caps);
         bwd[k] = p;
         free[k] = f;
     }
+}
+
+/// Jerk mode: the dilated caps of a window (see [`super::jerk`], point 3).
+/// `tail` holds committed `(s, source cap)` points behind the window; a source cap `c`
+/// reaches the positions within `W sqrt(c)` of it (`W = window_s`), and every point's
+/// cap becomes the least source cap reaching its two neighbouring intervals; straight intervals' inside caps likewise
+/// (`xin`). `radius` bounds every reach. Unless `ended`, points whose neighbourhood
+/// reaches past the window's last point get 0 (their future caps are unknown).
+#[allow(clippy::too_many_arguments)]
+fn dilate(
+    pts: &[GridPoint],
+    ivs: &[Interval],
+    tail: &[(f64, f64)],
+    radius: f64,
+    window_s: f64,
+    ended: bool,
+    src: &mut Vec<f64>,
+    capv: &mut Vec<f64>,
+    dil: &mut Vec<f64>,
+    xin: &mut Vec<f64>,
+) {
+    let n = pts.len();
+    src.clear();
+    src.extend((0..n).map(|k| {
+        let mut c = pts[k].x_src;
+        for iv in [k.checked_sub(1).map(|j| &ivs[j]), ivs.get(k)]
+            .into_iter()
+            .flatten()
+        {
+            if iv.straight {
+                c = c.min(iv.x_inside);
+            }
+        }
+        c
+    }));
+    // Each source cap c_j reaches the points within its own radius W sqrt(c_j) + margin.
+    let seq = |i: usize| -> (f64, f64) {
+        if i < tail.len() {
+            tail[i]
+        } else {
+            (pts[i - tail.len()].s, src[i - tail.len()])
+        }
+    };
+    let total = tail.len() + n;
+    let s_last = pts[n - 1].s;
+    // Sweep: sources as intervals [s - reach, s + reach] sorted by start; a min-heap
+    // (by cap) of the started ones, dropping those that ended before the query.
+    let mut iv_src: Vec<(f64, f64, f64)> = (0..total)
+        .filter_map(|i| {
+            let (sj, cj) = seq(i);
+            let r = (window_s * cj.sqrt()).min(radius);
+            cj.is_finite().then_some((sj - r, sj + r, cj))
+        })
+        .collect();
+    iv_src.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut heap: BinaryHeap<Reverse<(u64, usize)>> = BinaryHeap::new();
+    let mut next = 0;
+    capv.clear();
+    dil.clear();
+    for k in 0..n {
+        // The point's two neighbouring intervals.
+        let (a, b) = (pts[k.saturating_sub(1)].s, pts[(k + 1).min(n - 1)].s);
+        while next < iv_src.len() && iv_src[next].0 <= b {
+            // Caps are >= 0, so their bit patterns order like the values.
+            heap.push(Reverse((iv_src[next].2.max(0.0).to_bits(), next)));
+            next += 1;
+        }
+        while heap.peek().is_some_and(|Reverse((_, j))| iv_src[*j].1 < a) {
+            heap.pop();
+        }
+        let mut c = heap
+            .peek()
+            .map_or(f64::INFINITY, |Reverse((bits, _))| f64::from_bits(*bits));
+        if !ended && b + radius > s_last {
+            c = 0.0;
+        }
+        dil.push(c);
+        capv.push(pts[k].x_cap.min(c));
+    }
+    // Inside a straight interval: the dilated sources at its ends (not a stop's 0).
+    xin.clear();
+    xin.extend(
+        ivs.iter()
+            .enumerate()
+            .map(|(k, iv)| iv.x_inside.min(dil[k]).min(dil[k + 1])),
+    );
 }
 
 /// Splits interval `iv` travelled from `x = p` to `x = q` into constant-acceleration
@@ -148,10 +236,17 @@ pub fn plan_stream(
     let mut pts = vec![GridPoint {
         s: 0.0,
         x_cap: 0.0,
+        x_src: f64::INFINITY,
         stop: None,
     }];
     let mut ivs: Vec<Interval> = Vec::new();
     let (mut bwd, mut free, mut xf) = (Vec::new(), Vec::new(), Vec::new());
+    // Jerk mode: dilation radius, committed sources behind the window, work arrays.
+    let radius = caps
+        .jerk
+        .map(|j| super::jerk::dilation_radius_mm(opts.feed_mm_s.max(opts.rapid()), j.window_s));
+    let mut tail: Vec<(f64, f64)> = Vec::new();
+    let (mut src, mut capv, mut dil, mut xin) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut out: Vec<ProfilePiece> = Vec::new();
     let mut x0: f64 = 0.0;
     loop {
@@ -163,11 +258,36 @@ pub fn plan_stream(
             let len0 = pts.len();
             let ended = gen.fill(&mut pts, &mut ivs, target);
             generated += pts.len() - len0;
-            backward(&pts, &ivs, &caps, &mut bwd, &mut free);
+            let s_last = pts[pts.len() - 1].s;
+            match radius {
+                Some(r) => dilate(
+                    &pts,
+                    &ivs,
+                    &tail,
+                    r,
+                    caps.jerk.map_or(0.0, |j| j.window_s),
+                    ended,
+                    &mut src,
+                    &mut capv,
+                    &mut dil,
+                    &mut xin,
+                ),
+                None => {
+                    capv.clear();
+                    capv.extend(pts.iter().map(|p| p.x_cap));
+                }
+            }
+            backward(&capv, &ivs, &caps, &mut bwd, &mut free);
             if ended {
                 break (true, pts.len() - 1);
             }
-            if let Some(c) = (1..pts.len() - 1).rev().find(|&j| free[j]) {
+            // In jerk mode a committed point's dilated cap must be final: the reach of
+            // its neighbouring intervals lies inside the window.
+            let reach = radius.unwrap_or(0.0);
+            if let Some(c) = (1..pts.len() - 1)
+                .rev()
+                .find(|&j| free[j] && pts[j + 1].s + reach <= s_last)
+            {
                 break (false, c);
             }
             target *= 2;
@@ -184,7 +304,14 @@ pub fn plan_stream(
         for k in 0..commit {
             let q = ivs[k].forward(xf[k], bwd[k + 1], &caps);
             xf.push(q);
-            pieces(&ivs[k], pts[k].s, xf[k], q, &mut out);
+            let iv = match radius {
+                Some(_) => Interval {
+                    x_inside: xin[k],
+                    ..ivs[k]
+                },
+                None => ivs[k],
+            };
+            pieces(&iv, pts[k].s, xf[k], q, &mut out);
         }
         stats.plan_time_s += clock.elapsed().as_secs_f64();
         for pc in &out {
@@ -206,11 +333,20 @@ pub fn plan_stream(
             pts.push(GridPoint {
                 s: last.s,
                 x_cap: 0.0,
+                x_src: f64::INFINITY,
                 stop: None,
             });
             ivs.clear();
+            tail.clear();
             x0 = 0.0;
         } else {
+            if let Some(r) = radius {
+                // Sources within the radius behind the new window start stay known.
+                let s_c = pts[commit].s;
+                tail.extend((0..=commit).map(|j| (pts[j].s, src[j])));
+                let keep = tail.partition_point(|&(s, _)| s < s_c - r);
+                tail.drain(..keep);
+            }
             x0 = xf[commit];
             pts.drain(..commit);
             ivs.drain(..commit);

@@ -57,9 +57,15 @@
 //! * Every stop is held until the next period boundary, so the stop point itself is a
 //!   setpoint (the corner is not cut between two setpoints) and the next motion starts on
 //!   the period grid.
-//! * Jerk limiting (S-curve profiles) is not implemented in this module yet.
+//!
+//! ## Jerk limiting
+//! With [`PlanOptions::jerk_mm_s3`] the profile is a jerk-limited S-curve holding every
+//! axis's jerk limit: the trapezoid planned under tighter, dilated caps and a scalar
+//! tangential limit, then averaged over a time window. See [`jerk`] for the scheme, its
+//! proof and its cost.
 
 pub mod grid;
+pub mod jerk;
 pub mod limits;
 pub mod lookahead;
 
@@ -84,6 +90,9 @@ pub struct PlanOptions {
     pub rapid_mm_s: Option<f64>,
     /// Per-axis acceleration limits x, y, z (mm/s^2). Default 500 mm/s^2 each.
     pub acc_mm_s2: [f64; 3],
+    /// Per-axis jerk limits x, y, z (mm/s^3). Default `None`: the trapezoid profile
+    /// (linear acceleration, not jerk-limited); `Some`: the S-curve of [`jerk`].
+    pub jerk_mm_s3: Option<[f64; 3]>,
     /// Per-axis velocity limits x, y, z (mm/s). Default `None` (only the feed applies).
     pub vaxis_mm_s: Option<[f64; 3]>,
     /// Interpolation period T (s). Default 0.001 s.
@@ -101,6 +110,7 @@ impl Default for PlanOptions {
             feed_mm_s: 50.0,
             rapid_mm_s: None,
             acc_mm_s2: [500.0; 3],
+            jerk_mm_s3: None,
             vaxis_mm_s: None,
             period_s: 0.001,
             chord_error_mm: 0.001,
@@ -147,6 +157,11 @@ impl PlanOptions {
         for a in self.acc_mm_s2 {
             positive("acc", a)?;
         }
+        if let Some(v) = self.jerk_mm_s3 {
+            for a in v {
+                positive("jerk", a)?;
+            }
+        }
         if let Some(v) = self.vaxis_mm_s {
             for a in v {
                 positive("vaxis", a)?;
@@ -162,6 +177,21 @@ impl PlanOptions {
     /// Rapid speed (mm/s).
     pub fn rapid(&self) -> f64 {
         self.rapid_mm_s.unwrap_or(self.feed_mm_s)
+    }
+    /// The jerk-mode caps, when jerk limiting is asked for (options must be valid).
+    pub fn jerk_caps(&self) -> Option<jerk::JerkCaps> {
+        self.jerk_mm_s3.map(|j| {
+            jerk::JerkCaps::new(
+                self.acc_mm_s2.map(|a| a * ACC_PLANNING_FACTOR),
+                j,
+                self.period_s,
+            )
+        })
+    }
+    /// Extra time the machine rests at every stop (s): the jerk filter's window, zero
+    /// without jerk limiting.
+    pub fn stop_hold_s(&self) -> f64 {
+        self.jerk_caps().map_or(0.0, |j| j.window_s)
     }
 }
 

@@ -6,6 +6,12 @@
 //! Time: every stop (corner, event, dwell, end) is held until the next period boundary,
 //! so stop points are setpoints and the last row, at the first period boundary at or after
 //! the end of motion, is exactly the program's end point.
+//!
+//! Jerk mode ([`crate::feed::jerk`]): the samples are taken on the moving average of the
+//! planned arc length over the window `W` (exact integrals of the constant-acceleration
+//! pieces over the window, kept in a queue of at most `W` of plan), each stop held `W`
+//! longer; a sample whose whole window is at rest is exactly the rest point. The feed
+//! column is the filtered speed.
 
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
 use super::{InterpOptions, InterpStats, Interpolator};
@@ -22,6 +28,115 @@ use std::time::Instant;
 /// Slack (in periods) when rounding a stop time up to the period grid, so a stop that
 /// lands on a boundary up to rounding is not pushed a whole period later.
 const PERIOD_ROUND_SLACK: f64 = 1e-9;
+
+/// A stretch of the planned (unfiltered) time line: motion with constant acceleration or
+/// rest.
+#[derive(Clone, Copy, Debug)]
+struct Stretch {
+    t0: f64,
+    t1: f64,
+    s0: f64,
+    v0: f64,
+    a: f64,
+    rest: bool,
+}
+
+impl Stretch {
+    fn s_at(&self, t: f64) -> f64 {
+        if self.rest {
+            return self.s0;
+        }
+        let tau = (t - self.t0).clamp(0.0, self.t1 - self.t0);
+        self.s0 + self.v0 * tau + 0.5 * self.a * tau * tau
+    }
+    /// Integral of `s` over `[lo, hi]` (inside the stretch).
+    fn integral(&self, lo: f64, hi: f64) -> f64 {
+        if self.rest {
+            return self.s0 * (hi - lo);
+        }
+        let (a, b) = (lo - self.t0, hi - self.t0);
+        self.s0 * (b - a) + 0.5 * self.v0 * (b * b - a * a) + self.a * (b * b * b - a * a * a) / 6.0
+    }
+}
+
+/// Jerk mode: the moving average of the planned arc length over a window `w`
+/// (see [`crate::feed::jerk`]): `s_f(t) = (1/w) int_{t-w}^{t} s`, the plan resting at
+/// `s = 0` before `t = 0`.
+struct MovingAverage {
+    w: f64,
+    line: std::collections::VecDeque<Stretch>,
+    /// The planned time line is known up to here.
+    t_known: f64,
+    last_s: f64,
+}
+
+impl MovingAverage {
+    fn new(w: f64) -> Self {
+        let mut line = std::collections::VecDeque::new();
+        line.push_back(Stretch {
+            t0: -w,
+            t1: 0.0,
+            s0: 0.0,
+            v0: 0.0,
+            a: 0.0,
+            rest: true,
+        });
+        MovingAverage {
+            w,
+            line,
+            t_known: 0.0,
+            last_s: 0.0,
+        }
+    }
+    fn push(&mut self, st: Stretch) {
+        if st.t1 > st.t0 {
+            self.line.push_back(st);
+        }
+        self.t_known = self.t_known.max(st.t1);
+    }
+    /// Filtered arc length and speed at `t` (`t <= t_known`).
+    fn sample(&mut self, t: f64) -> (f64, f64) {
+        let lo = t - self.w;
+        while self.line.len() > 1 && self.line[0].t1 <= lo {
+            self.line.pop_front();
+        }
+        let mut sum = 0.0;
+        let mut rest_s: Option<f64> = None;
+        let mut all_rest = true;
+        let (mut s_lo, mut s_hi) = (None, 0.0);
+        for st in &self.line {
+            if st.t0 >= t {
+                break;
+            }
+            if st.t1 <= lo {
+                continue;
+            }
+            let (a, b) = (st.t0.max(lo), st.t1.min(t));
+            sum += st.integral(a, b);
+            if s_lo.is_none() {
+                s_lo = Some(st.s_at(a));
+            }
+            s_hi = st.s_at(b);
+            if st.rest && rest_s.is_none_or(|s| s == st.s0) {
+                rest_s = Some(st.s0);
+            } else {
+                all_rest = false;
+            }
+        }
+        let (s, v) = match rest_s {
+            // At rest over the whole window: exactly the rest point.
+            Some(r) if all_rest => (r, 0.0),
+            _ => (
+                sum / self.w,
+                ((s_hi - s_lo.unwrap_or(s_hi)) / self.w).max(0.0),
+            ),
+        };
+        // Monotone despite rounding (the interpolator never goes back).
+        let s = s.max(self.last_s);
+        self.last_s = s;
+        (s, v)
+    }
+}
 
 /// Errors of a run.
 #[derive(Debug)]
@@ -63,11 +178,17 @@ pub struct AxisReport {
     pub a_ratio: f64,
     /// `a_max <= a_limit + a_noise`.
     pub a_within: bool,
-    /// Largest finite-difference jerk (mm/s^3); the trapezoid profile is not jerk-limited,
-    /// so this is reported without a limit.
+    /// Largest finite-difference jerk (mm/s^3).
     pub j_max_mm_s3: f64,
     /// Time of the largest jerk (s).
     pub j_max_at_s: f64,
+    /// Jerk limit (mm/s^3), when jerk limiting was asked for (the trapezoid profile is not
+    /// jerk-limited).
+    pub j_limit_mm_s3: Option<f64>,
+    /// `j_max / j_limit`, when limited.
+    pub j_ratio: Option<f64>,
+    /// `j_max <= j_limit + j_noise` (true when not limited).
+    pub j_within: bool,
 }
 
 /// Time per stage (s).
@@ -109,7 +230,7 @@ pub struct PlanReport {
     pub fd_acc_noise_mm_s2: f64,
     /// Same for jerk: `4e-9 / T^3` (mm/s^3).
     pub fd_jerk_noise_mm_s3: f64,
-    /// Every axis within its velocity and acceleration limits.
+    /// Every axis within its velocity and acceleration limits (and jerk, when limited).
     pub limits_held: bool,
     /// Exact stops by reason (and corners blended by the junction-deviation rule).
     pub exact_stops: StopCounts,
@@ -145,7 +266,70 @@ pub fn execute<W: Write>(
     let (mut interp_s, mut write_s) = (0.0, 0.0);
     let mut batch: Vec<(f64, f64, f64)> = Vec::new();
     let mut points: Vec<(crate::geom::Vec3, Option<crate::path::ExtraAxes>)> = Vec::new();
+    let hold = popts.stop_hold_s();
+    let mut filter = popts.jerk_caps().map(|j| MovingAverage::new(j.window_s));
     let planning = plan_stream(&index, popts, |ev| match ev {
+        ev if filter.is_some() => {
+            let f = filter.as_mut().expect("jerk mode");
+            let last = match ev {
+                PlanEvent::Piece(pc) => {
+                    f.push(Stretch {
+                        t0: t,
+                        t1: t + pc.dt,
+                        s0: pc.s0,
+                        v0: pc.v0,
+                        a: pc.acc(),
+                        rest: false,
+                    });
+                    t += pc.dt;
+                    None
+                }
+                PlanEvent::Stop { s, reason, dwell_s } => {
+                    // Rest for the filter window more than the trapezoid would, so the
+                    // filtered motion comes to rest at the stop (see feed::jerk).
+                    let rest_end = t + dwell_s + hold;
+                    let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
+                    if reason == StopReason::End {
+                        k = k.max(n);
+                    }
+                    f.push(Stretch {
+                        t0: t,
+                        t1: k as f64 * period,
+                        s0: s,
+                        v0: 0.0,
+                        a: 0.0,
+                        rest: true,
+                    });
+                    t = k as f64 * period;
+                    (reason == StopReason::End).then_some(k)
+                }
+            };
+            batch.clear();
+            while (n as f64) * period <= f.t_known || last.is_some_and(|k| n <= k) {
+                let time = n as f64 * period;
+                let (s, v) = f.sample(time);
+                batch.push((time, s, v));
+                n += 1;
+            }
+            let c0 = Instant::now();
+            points.clear();
+            points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
+            let c1 = Instant::now();
+            for (&(time, _, v), &(p, extra)) in batch.iter().zip(&points) {
+                if err.is_none() {
+                    if let Err(e) = writer.push(&Setpoint {
+                        t: time,
+                        p,
+                        feed: v,
+                        extra,
+                    }) {
+                        err = Some(e);
+                    }
+                }
+            }
+            interp_s += (c1 - c0).as_secs_f64();
+            write_s += c1.elapsed().as_secs_f64();
+        }
         PlanEvent::Piece(pc) => {
             // Samples of this piece, interpolated and written in two timed batches.
             batch.clear();
@@ -234,6 +418,11 @@ pub fn execute<W: Write>(
                 a_within: fd.a_max[i] <= a_limit + acc_noise,
                 j_max_mm_s3: fd.j_max[i],
                 j_max_at_s: fd.j_max_t[i],
+                j_limit_mm_s3: popts.jerk_mm_s3.map(|j| j[i]),
+                j_ratio: popts.jerk_mm_s3.map(|j| fd.j_max[i] / j[i]),
+                j_within: popts
+                    .jerk_mm_s3
+                    .is_none_or(|j| fd.j_max[i] <= j[i] + jerk_noise),
             }
         })
         .collect();
@@ -254,7 +443,7 @@ pub fn execute<W: Write>(
         path_length_mm: index.total_len,
         moves: index.moves.len(),
         interp: interp.stats.clone(),
-        limits_held: axes.iter().all(|a| a.v_within && a.a_within),
+        limits_held: axes.iter().all(|a| a.v_within && a.a_within && a.j_within),
         axes,
         fd_acc_noise_mm_s2: acc_noise,
         fd_jerk_noise_mm_s3: jerk_noise,

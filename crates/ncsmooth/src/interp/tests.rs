@@ -272,3 +272,163 @@ proptest! {
         assert_limits(&rep);
     }
 }
+
+/// Jerk mode: every axis within acceleration and jerk (the report's rule: the limit plus
+/// the finite-difference noise of the printed positions).
+fn assert_jerk_limits(rep: &PlanReport) {
+    assert_limits(rep);
+    for a in &rep.axes {
+        assert!(a.j_within, "{a:?}");
+        assert!(a.j_limit_mm_s3.is_some());
+    }
+    assert!(rep.limits_held);
+}
+
+#[test]
+fn jerk_line_is_the_averaged_trapezoid() {
+    // 100 mm along X: the plan is a trapezoid at U (the tangential share of the
+    // acceleration); the setpoints follow its moving average over W, resting W at the end.
+    let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(100.0, 0.0, 0.0)], None);
+    let p = PlanOptions {
+        jerk_mm_s3: Some([5000.0; 3]),
+        ..Default::default()
+    };
+    let jc = p.jerk_caps().unwrap();
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_jerk_limits(&rep);
+    let plan = 100.0 / 50.0 + 50.0 / jc.u_max_mm_s2;
+    let expect = ((plan + jc.window_s) / p.period_s - 1e-9).ceil() * p.period_s;
+    assert!(
+        (rep.cycle_time_s - expect).abs() <= p.period_s + 1e-9,
+        "{}",
+        rep.cycle_time_s
+    );
+    // The S-curve: the acceleration ramps at U / W (the box filter of a step in u).
+    let x = &rep.axes[0];
+    assert!((x.a_max_mm_s2 - jc.u_max_mm_s2).abs() < 1.0, "{x:?}");
+    let ramp = jc.u_max_mm_s2 / jc.window_s;
+    assert!((x.j_max_mm_s3 - ramp).abs() < 0.02 * ramp, "{x:?}");
+    // The trapezoid on the same line jumps in acceleration: its jerk is far above.
+    let (trap, _) = run(&tp, &PlanOptions::default(), &InterpOptions::default());
+    assert!(trap.axes[0].j_max_mm_s3 > 20.0 * 5000.0);
+    assert!(trap.axes[0].j_within && trap.axes[0].j_limit_mm_s3.is_none());
+}
+
+#[test]
+fn jerk_butterfly_wu_setting() {
+    let tp = butterfly_path();
+    let p = PlanOptions {
+        period_s: 0.002,
+        jerk_mm_s3: Some([5000.0, 4000.0, 5000.0]),
+        ..Default::default()
+    };
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_jerk_limits(&rep);
+    assert!(rep.interp.eta_max <= 0.001);
+    for a in &rep.axes {
+        assert!(a.a_ratio <= 1.01 && a.j_ratio.unwrap() <= 1.01, "{a:?}");
+    }
+}
+
+#[test]
+fn jerk_stops_hold_the_corner() {
+    // A square corner: the filtered motion comes to rest at the corner (a setpoint exactly
+    // there) and the jerk holds on both sides.
+    let c = Vec3::new(10.0, 0.0, 0.0);
+    let tp = Toolpath::from_polyline(&[Vec3::ZERO, c, Vec3::new(10.0, 10.0, 0.0)], None);
+    let p = PlanOptions {
+        jerk_mm_s3: Some([2000.0; 3]),
+        ..Default::default()
+    };
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_jerk_limits(&rep);
+    assert_eq!(rep.exact_stops.corner, 1);
+    assert!(r
+        .iter()
+        .any(|row| Vec3::new(row[1], row[2], row[3]).dist(c) == 0.0));
+    // Off the two lines nothing is ever commanded (no corner cutting).
+    for row in &r {
+        assert!(
+            row[2].abs() < 1e-9 || (row[1] - 10.0).abs() < 1e-9,
+            "{row:?}"
+        );
+    }
+}
+
+#[test]
+fn line_cuts_are_ordered_and_fine_at_the_ends() {
+    for len in [1e-3, 0.01, 0.7, 3.0, 100.0] {
+        let c = crate::feed::jerk::line_cuts(len);
+        assert!(c.windows(2).all(|w| w[1] > w[0]), "{len}: {c:?}");
+        assert!(c.iter().all(|&x| x > 0.0 && x < len));
+        let mut all = vec![0.0];
+        all.extend(&c);
+        all.push(len);
+        for w in all.windows(2) {
+            assert!(w[1] - w[0] <= crate::feed::grid::MAX_CURVE_DS_MM + 1e-12);
+        }
+        if len > 0.1 {
+            assert!(
+                c[0] <= 1.5e-3 && len - c[c.len() - 1] <= 1.5e-3,
+                "{len}: {c:?}"
+            );
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+
+    #[test]
+    fn jerk_raw_paths_hold_limits(pts in polyline(), feed in 5.0f64..120.0, acc in 100.0f64..3000.0, jerk in 500.0f64..50000.0) {
+        let tp = Toolpath::from_polyline(&pts, None);
+        let p = PlanOptions { feed_mm_s: feed, acc_mm_s2: [acc, acc * 0.7, acc * 0.5], jerk_mm_s3: Some([jerk, jerk * 0.6, jerk * 2.0]), ..Default::default() };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_jerk_limits(&rep);
+    }
+
+    #[test]
+    fn jerk_blended_paths_hold_limits(pts in polyline(), d in 0.05f64..3.0, feed in 5.0f64..120.0, jerk in 1000.0f64..20000.0, period in prop::sample::select(vec![0.001, 0.002])) {
+        let tp = blended(&pts, d);
+        let p = PlanOptions { feed_mm_s: feed, vaxis_mm_s: Some([feed, feed * 0.8, feed * 0.3]), period_s: period, jerk_mm_s3: Some([jerk; 3]), ..Default::default() };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_jerk_limits(&rep);
+    }
+}
+
+#[test]
+fn jerk_micro_segments_do_not_oscillate() {
+    // 20000 collinear 0.01 mm segments (several planning windows): with jerk limiting the
+    // planned feed rises once, cruises and falls once, like one 200 mm line.
+    let pts: Vec<Vec3> = (0..=20000)
+        .map(|i| Vec3::new(i as f64 * 0.01, 0.0, 0.0))
+        .collect();
+    let tp = Toolpath::from_polyline(&pts, None);
+    let p = PlanOptions {
+        jerk_mm_s3: Some([5000.0; 3]),
+        ..Default::default()
+    };
+    let (rep, r) = run(&tp, &p, &InterpOptions::default());
+    check_invariants(&tp, &rep, &r);
+    assert_jerk_limits(&rep);
+    assert!(rep.planning.windows > 1);
+    let one = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(200.0, 0.0, 0.0)], None);
+    let (single, _) = run(&one, &p, &InterpOptions::default());
+    assert!((rep.cycle_time_s - single.cycle_time_s).abs() <= p.period_s + 1e-9);
+    let mut falling = false;
+    for w in r.windows(2) {
+        let (f0, f1) = (w[0][4], w[1][4]);
+        if f1 < f0 - 1e-6 {
+            falling = true;
+        }
+        assert!(
+            !falling || f1 <= f0 + 1e-6,
+            "feed rises after falling: {w:?}"
+        );
+    }
+}
