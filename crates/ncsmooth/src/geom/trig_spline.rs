@@ -453,7 +453,7 @@ impl ParamCurveNearest for TrigSpline {
 impl ParamCurveCurvature for TrigSpline {}
 
 impl ParamCurveBBox for TrigSpline {
-    /// Union of [`BBOX_PIECES`] interval boxes. Proof: on a piece of the window, `S`
+    /// Union of `BBOX_PIECES` (8) interval boxes. Proof: on a piece of the window, `S`
     /// increases and `C` decreases (the window lies in `[0, 1]`, where `pi u / 2` is in the
     /// first quadrant), so each of `C^3, S^3, S^2, C, S` lies between its end values; the
     /// curve is `q0 + sum W_m f_m`, and the box of sums of ranges contains it.
