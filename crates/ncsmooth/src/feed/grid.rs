@@ -434,8 +434,18 @@ impl<'p, 'a> GridGen<'p, 'a> {
             }
             seg => {
                 let sp = spans(seg);
+                // Arcs and helices: curvature of constant size whose direction turns with
+                // the swept angle, so uniform steps of at most MAX_TURN_DEG of sweep bound
+                // both the tangent and the curvature-vector rotation (an end-point check
+                // then misses an interior maximum by at most 1 - cos(step / 2), 6e-5),
+                // with no refinement.
+                let arc_steps = match seg {
+                    Segment::Arc(a) => Some((a.sweep / MAX_TURN_DEG.to_radians()).ceil() as usize),
+                    _ => None,
+                };
                 let n0 = ((m.len / MAX_CURVE_DS_MM).ceil() as usize)
                     .max(MIN_CURVE_INTERVALS * sp)
+                    .max(arc_steps.unwrap_or(0))
                     .min(MAX_CURVE_INTERVALS);
                 let geo = |t: f64| (tangent_at(seg, t), curvature_at(seg, t));
                 // Uniform start, then bisection where the tangent turns too much or the
@@ -459,7 +469,8 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 while let Some(&(t1, tt1, kk1)) = stack.last() {
                     let &(t0, tt0, kk0) = params.last().expect("non-empty");
                     let kmax = kk0.norm().max(kk1.norm()).max(k_floor);
-                    let split = params.len() + stack.len() < MAX_CURVE_INTERVALS
+                    let split = arc_steps.is_none()
+                        && params.len() + stack.len() < MAX_CURVE_INTERVALS
                         && t1 - t0 > MIN_PARAM_STEP
                         && (tt0.angle_to(tt1) > max_turn
                             || (kk1 - kk0).norm() > MAX_CURVATURE_CHANGE * kmax + 1e-9);

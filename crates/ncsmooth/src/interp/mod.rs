@@ -206,6 +206,10 @@ fn gl5_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
 /// halves; where they disagree by more than [`STEP_ARCLEN_ACCURACY_MM`] (a step across a
 /// tight bend or a zero-speed end) adaptive quadrature takes over.
 pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
+    // Lines and arcs (helices included) have constant parametric speed: exact.
+    if let Segment::Line(_) | Segment::Arc(_) = seg {
+        return crate::geom::ParamCurveArclen::arclen(seg, 0.0) * (b - a);
+    }
     let whole = gl5_arclen(seg, a, b);
     let m = 0.5 * (a + b);
     let halves = gl5_arclen(seg, a, m) + gl5_arclen(seg, m, b);
