@@ -246,6 +246,37 @@ pub struct PlanReport {
     pub real_time_factor: f64,
 }
 
+/// Interpolates a batch of planned samples `(t, s, v)` and writes them (the first write
+/// error is kept and later writes skipped), adding the time of each stage to `times`
+/// (interpolation, writing).
+fn emit_batch<W: Write>(
+    batch: &[(f64, f64, f64)],
+    points: &mut Vec<(crate::geom::Vec3, Option<crate::path::ExtraAxes>)>,
+    interp: &mut Interpolator<'_, '_>,
+    writer: &mut SetpointWriter<W>,
+    err: &mut Option<io::Error>,
+    times: (&mut f64, &mut f64),
+) {
+    let c0 = Instant::now();
+    points.clear();
+    points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
+    let c1 = Instant::now();
+    for (&(time, _, v), &(p, extra)) in batch.iter().zip(points.iter()) {
+        if err.is_none() {
+            if let Err(e) = writer.push(&Setpoint {
+                t: time,
+                p,
+                feed: v,
+                extra,
+            }) {
+                *err = Some(e);
+            }
+        }
+    }
+    *times.0 += (c1 - c0).as_secs_f64();
+    *times.1 += c1.elapsed().as_secs_f64();
+}
+
 /// Plans `path` under `popts`, interpolates it with `iopts` and writes the setpoints to
 /// `out` (use `std::io::sink()` to only measure). Returns the report and the writer.
 pub fn execute<W: Write>(
@@ -311,24 +342,14 @@ pub fn execute<W: Write>(
                 batch.push((time, s, v));
                 n += 1;
             }
-            let c0 = Instant::now();
-            points.clear();
-            points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
-            let c1 = Instant::now();
-            for (&(time, _, v), &(p, extra)) in batch.iter().zip(&points) {
-                if err.is_none() {
-                    if let Err(e) = writer.push(&Setpoint {
-                        t: time,
-                        p,
-                        feed: v,
-                        extra,
-                    }) {
-                        err = Some(e);
-                    }
-                }
-            }
-            interp_s += (c1 - c0).as_secs_f64();
-            write_s += c1.elapsed().as_secs_f64();
+            emit_batch(
+                &batch,
+                &mut points,
+                &mut interp,
+                &mut writer,
+                &mut err,
+                (&mut interp_s, &mut write_s),
+            );
         }
         PlanEvent::Piece(pc) => {
             // Samples of this piece, interpolated and written in two timed batches.
@@ -343,24 +364,14 @@ pub fn execute<W: Write>(
             if batch.is_empty() {
                 return;
             }
-            let c0 = Instant::now();
-            points.clear();
-            points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
-            let c1 = Instant::now();
-            for (&(time, _, v), &(p, extra)) in batch.iter().zip(&points) {
-                if err.is_none() {
-                    if let Err(e) = writer.push(&Setpoint {
-                        t: time,
-                        p,
-                        feed: v,
-                        extra,
-                    }) {
-                        err = Some(e);
-                    }
-                }
-            }
-            interp_s += (c1 - c0).as_secs_f64();
-            write_s += c1.elapsed().as_secs_f64();
+            emit_batch(
+                &batch,
+                &mut points,
+                &mut interp,
+                &mut writer,
+                &mut err,
+                (&mut interp_s, &mut write_s),
+            );
         }
         PlanEvent::Stop { s, reason, dwell_s } => {
             let rest_end = t + dwell_s;
