@@ -30,10 +30,32 @@ pub fn read_input(path: &str) -> Result<Vec<u8>> {
 }
 
 /// Writes `bytes` to `path` atomically, or to stdout for `-`.
+///
+/// A regular file (or a new one) is written to a temporary file beside it and renamed into
+/// place; a symbolic link is followed, so the link stays and its target is replaced. A path
+/// that exists and is not a regular file (`/dev/null`, a FIFO, a terminal) is written in
+/// place: renaming over it would replace the device node with a plain file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if path.as_os_str() == "-" {
         return print_stdout(&String::from_utf8_lossy(bytes));
     }
+    match std::fs::metadata(path) {
+        Ok(meta) if !meta.is_file() && !meta.is_dir() => {
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .with_context(|| format!("opening {}", path.display()))?;
+            f.write_all(bytes)
+                .with_context(|| format!("writing {}", path.display()))?;
+            return Ok(());
+        }
+        Ok(meta) if meta.is_dir() => {
+            return Err(BadInput(format!("output {} is a directory", path.display())).into());
+        }
+        _ => {}
+    }
+    let resolved = std::fs::canonicalize(path).ok();
+    let path = resolved.as_deref().unwrap_or(path);
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),

@@ -296,3 +296,58 @@ fn plan_with_jerk_reports_it_held() {
     assert_eq!(o.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Outputs that are not regular files are written in place, never replaced by a rename:
+/// a FIFO stays a FIFO (as `/dev/null` must stay a device when a root user writes `-o
+/// /dev/null`), and a symbolic link stays a link whose target receives the output.
+#[cfg(unix)]
+#[test]
+fn outputs_through_fifos_and_symlinks_keep_the_node() {
+    use std::os::unix::fs::FileTypeExt;
+    let d = tmpdir("nodes");
+    let f = write(
+        &d,
+        "p.ngc",
+        b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\n",
+    );
+    let smooth_to = |out: &Path| {
+        run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            "none",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
+
+    let fifo = d.join("pipe");
+    let made = Command::new("mkfifo").arg(&fifo).status();
+    if made.map(|s| s.success()).unwrap_or(false) {
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+        };
+        let o = smooth_to(&fifo);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // Checked before joining: a replaced FIFO would leave the reader blocked.
+        let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(kind.is_fifo(), "the FIFO was replaced: {kind:?}");
+        let got = reader.join().unwrap();
+        assert!(got.contains("X10"), "{got}");
+    } else {
+        eprintln!("mkfifo unavailable: FIFO case skipped");
+    }
+
+    let target = write(&d, "target.ngc", b"old");
+    let link = d.join("link.ngc");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let o = smooth_to(&link);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert!(std::fs::read_to_string(&target).unwrap().contains("X10"));
+    let _ = std::fs::remove_dir_all(&d);
+}
