@@ -120,24 +120,14 @@ impl Default for PlanOptions {
 }
 
 /// Invalid planning options.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{name} = {value} is invalid: a positive finite number is required")]
 pub struct PlanOptionsError {
     /// Option name.
     pub name: &'static str,
     /// Offending value.
     pub value: f64,
 }
-
-impl std::fmt::Display for PlanOptionsError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} = {} is invalid: a positive finite number is required",
-            self.name, self.value
-        )
-    }
-}
-impl std::error::Error for PlanOptionsError {}
 
 fn positive(name: &'static str, value: f64) -> Result<(), PlanOptionsError> {
     if value > 0.0 && value.is_finite() {

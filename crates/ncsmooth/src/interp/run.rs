@@ -139,23 +139,15 @@ impl MovingAverage {
 }
 
 /// Errors of a run.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     /// Invalid options.
+    #[error(transparent)]
     Options(PlanOptionsError),
     /// Writing the setpoints failed.
+    #[error("writing setpoints: {0}")]
     Io(io::Error),
 }
-
-impl std::fmt::Display for PlanError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            PlanError::Options(e) => e.fmt(f),
-            PlanError::Io(e) => write!(f, "writing setpoints: {e}"),
-        }
-    }
-}
-impl std::error::Error for PlanError {}
 
 /// Measured maxima of one axis against its limits.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -119,22 +119,12 @@ impl Default for SmoothOptions {
 }
 
 /// Invalid smoothing options.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum OptionsError {
     /// A value out of its range: name, value, what is allowed.
+    #[error("{0} = {1} is invalid: {2}")]
     OutOfRange(&'static str, f64, &'static str),
 }
-
-impl std::fmt::Display for OptionsError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            OptionsError::OutOfRange(name, v, allowed) => {
-                write!(f, "{name} = {v} is invalid: {allowed}")
-            }
-        }
-    }
-}
-impl std::error::Error for OptionsError {}
 
 impl SmoothOptions {
     /// Checks the ranges.
