@@ -6,8 +6,9 @@
 //! (F 50 mm/s), for planning a smooth curve without a smoothing step.
 
 use crate::cmd_smooth::MethodArg;
+use crate::io::OutputFile;
 use crate::{io, load, Ui};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
@@ -16,7 +17,7 @@ use ncsmooth::path::{Move, Toolpath};
 use ncsmooth::smooth::{smooth, SmoothOptions, SmoothReport};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Name of the built-in butterfly input.
@@ -25,6 +26,8 @@ pub const BUILTIN_BUTTERFLY: &str = "builtin:butterfly";
 const BUILTIN_FEED_MM_S: f64 = 50.0;
 /// Accuracy (mm) of the arc-length sampling of `--path-samples`.
 const SAMPLE_ACCURACY_MM: f64 = 1e-9;
+/// Write buffer of the setpoint stream (bytes).
+const SETPOINT_BUFFER_BYTES: usize = 1 << 20;
 
 /// Interpolation method names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -51,8 +54,7 @@ pub enum NewtonStop {
 pub struct PlanArgs {
     /// G-code file, `-` for stdin, or `builtin:butterfly`.
     pub file: String,
-    /// Smoothing method applied before planning (methods not built yet pass the program
-    /// through unchanged).
+    /// Smoothing method applied before planning (`none` plans the program as written).
     #[arg(long, value_enum, default_value = "none")]
     pub method: MethodArg,
     /// Two-sided smoothing tolerance (mm).
@@ -152,9 +154,8 @@ fn builtin_butterfly() -> Toolpath {
 }
 
 /// Writes `s,x,y,z` every `ds` mm along the moves (and each move's end).
-fn write_samples(path: &Path, tp: &Toolpath, ds: f64) -> Result<()> {
-    let f = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-    let mut w = BufWriter::new(f);
+fn write_samples(out: &mut OutputFile, tp: &Toolpath, ds: f64) -> Result<()> {
+    let mut w = BufWriter::new(out);
     writeln!(w, "s,x,y,z")?;
     let mut s0 = 0.0;
     let mut first = true;
@@ -189,6 +190,17 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         )
     };
     let parse_s = t0.elapsed().as_secs_f64();
+    // Every output is opened before the work (a bad directory fails at once) and moved into
+    // place only when all of them were written: a failed run leaves none behind.
+    let open = |p: &Option<PathBuf>| -> Result<Option<OutputFile>> {
+        match p {
+            Some(p) if p.as_os_str() != "-" => Ok(Some(OutputFile::create(p)?)),
+            _ => Ok(None),
+        }
+    };
+    let mut samples_out = open(&a.path_samples)?;
+    let setpoints_out = open(&a.setpoints)?;
+    let mut report_out = open(&a.report)?;
     let popts = PlanOptions {
         feed_mm_s: a.feed,
         rapid_mm_s: a.rapid,
@@ -224,32 +236,27 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let smoothed = smooth(&toolpath, &sopts).map_err(|e| io::BadInput(e.to_string()))?;
     drop(toolpath);
     let smooth_s = t1.elapsed().as_secs_f64();
-    if let Some(p) = &a.path_samples {
+    if let Some(out) = &mut samples_out {
         if a.sample_ds.is_nan() || a.sample_ds <= 0.0 {
             return Err(io::BadInput("--sample-ds must be positive".into()).into());
         }
-        write_samples(p, &smoothed.toolpath, a.sample_ds)?;
+        write_samples(out, &smoothed.toolpath, a.sample_ds)?;
     }
-    let report = match &a.setpoints {
-        Some(p) if p.as_os_str() != "-" => {
-            let tmp = p.with_extension("csv.partial");
-            let f = std::fs::File::create(&tmp)
-                .with_context(|| format!("creating {}", tmp.display()))?;
-            let (rep, w) = execute(
-                &smoothed.toolpath,
-                &popts,
-                &iopts,
-                BufWriter::with_capacity(1 << 20, f),
-            )?;
-            w.into_inner().map_err(|e| e.into_error())?.sync_all().ok();
-            std::fs::rename(&tmp, p).with_context(|| format!("writing {}", p.display()))?;
-            rep
+    let (report, setpoints_out) = match (setpoints_out, &a.setpoints) {
+        (Some(f), _) => {
+            let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, f);
+            let (rep, w) = execute(&smoothed.toolpath, &popts, &iopts, w)?;
+            (rep, Some(w.into_inner().map_err(|e| e.into_error())?))
         }
-        Some(_) => {
+        (None, Some(_)) => {
             let out = std::io::stdout().lock();
-            execute(&smoothed.toolpath, &popts, &iopts, BufWriter::new(out))?.0
+            let w = BufWriter::new(out);
+            (execute(&smoothed.toolpath, &popts, &iopts, w)?.0, None)
         }
-        None => execute(&smoothed.toolpath, &popts, &iopts, std::io::sink())?.0,
+        (None, None) => (
+            execute(&smoothed.toolpath, &popts, &iopts, std::io::sink())?.0,
+            None,
+        ),
     };
     let total = t0.elapsed().as_secs_f64();
     let run = PlanRunReport {
@@ -261,8 +268,17 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         end_to_end_real_time_factor: report.cycle_time_s / total,
         plan: report,
     };
-    if let Some(rp) = &a.report {
-        io::write_atomic(rp, serde_json::to_string_pretty(&run)?.as_bytes())?;
+    let json = serde_json::to_string_pretty(&run)?;
+    match (&mut report_out, &a.report) {
+        (Some(f), _) => f.write_all(json.as_bytes())?,
+        (None, Some(_)) => io::print_stdout(&json)?,
+        (None, None) => {}
+    }
+    for out in [samples_out, setpoints_out, report_out]
+        .into_iter()
+        .flatten()
+    {
+        out.commit()?;
     }
     let r = &run.plan;
     let worst = r.axes.iter().map(|x| x.a_ratio).fold(0.0f64, f64::max);

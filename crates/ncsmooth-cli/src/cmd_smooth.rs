@@ -2,18 +2,21 @@
 //! write G-code (plus an optional JSON report).
 //!
 //! The written file honours `--tol`: curves that G-code cannot carry are built to
-//! `tol - chord` and then flattened into G1 lines within `chord` (default `tol / 10`), so the
-//! flattened output is within `tol` of the program. The written path is measured with
-//! [`ncsmooth::verify::deviation`] before anything is written; a violation is an internal
+//! `tol - chord - rounding` and then flattened into G1 lines within `chord` (default
+//! `tol / 10`); `rounding` is the most a point moves when its coordinates are printed with
+//! `--decimals` digits ([`ncsmooth_gcode::writer::rounding_mm`]). What is measured is the
+//! written text itself, read back by the parser, against the program, with
+//! [`ncsmooth::verify::deviation`], before any file is written; a violation is an internal
 //! error (exit 1) and no file is written.
 
 use crate::{io, load, Ui};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
 use serde::Serialize;
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -21,6 +24,10 @@ use std::time::Instant;
 pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
 /// Accuracy of the verification, as a share of the tolerance.
 pub const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
+/// Smallest curve tolerance, as a share of `--tol`, that smoothing is asked to build to.
+const MIN_CURVE_TOL_SHARE: f64 = 0.25;
+/// Largest `--decimals`.
+const MAX_DECIMALS: usize = ncsmooth_gcode::writer::MAX_DECIMALS;
 
 /// Smoothing method names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -79,9 +86,9 @@ pub struct SmoothArgs {
     /// Chord error (mm) when flattening curves into G1 lines [default: tol / 10].
     #[arg(long)]
     pub chord: Option<f64>,
-    /// Decimals of the written coordinates.
-    #[arg(long, default_value_t = 4)]
-    pub decimals: usize,
+    /// Decimals of the written coordinates (0 to 12; rounding uses part of the tolerance).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=MAX_DECIMALS as i64))]
+    pub decimals: u8,
     /// Junctions turning less than this (degrees) pass through unchanged.
     #[arg(long, default_value_t = ncsmooth::verify::TANGENT_TOL_DEG)]
     pub straight_angle: f64,
@@ -139,14 +146,16 @@ pub struct SmoothRunReport {
     pub input: String,
     /// Tolerance asked for (mm).
     pub tol_mm: f64,
-    /// Tolerance the curves were built to (mm): `tol - chord`.
+    /// Tolerance the curves were built to (mm): `tol - chord - rounding`.
     pub curve_tol_mm: f64,
     /// Flattening chord error (mm).
     pub chord_mm: f64,
+    /// Largest move of a point by the printed decimals (mm).
+    pub rounding_mm: f64,
     /// What the method did.
     pub smoothing: SmoothReport,
-    /// Measured two-sided deviation of the written path from the program (without the
-    /// loops in loop mode: the legs still reach every looped corner).
+    /// Measured two-sided deviation of the written G-code, read back, from the program
+    /// (without the loops in loop mode: the legs still reach every looped corner).
     pub deviation: Deviation,
     /// Loop mode: the loops' own bound (corner passed, excursion within the loop size).
     pub loops: Option<LoopCheck>,
@@ -191,11 +200,20 @@ pub fn smooth_program(
     if !(chord > 0.0 && chord < tol) {
         return Err(io::BadInput(format!("--chord must be in (0, tol), got {chord}")).into());
     }
-    let curve_tol = if method == Method::None {
-        tol
-    } else {
-        tol - chord
-    };
+    let rounding = ncsmooth_gcode::writer::rounding_mm(decimals);
+    // `none` builds no curves, but rounding still moves its points and off-plane arcs are
+    // still flattened: the same budget applies.
+    let curve_tol = tol - chord - rounding;
+    // A tolerance eaten by the flattening chord and the printed decimals is an input
+    // error, not something to fail on later.
+    if !(curve_tol > tol * MIN_CURVE_TOL_SHARE) {
+        return Err(io::BadInput(format!(
+            "--tol {tol:?} mm leaves too little room: the flattening chord takes {chord:?} mm \
+             and {decimals} decimals round coordinates by up to {rounding:.3e} mm; \
+             use a larger --tol, a smaller --chord or more --decimals"
+        ))
+        .into());
+    }
     let opts = SmoothOptions {
         tol_mm: curve_tol,
         ..base
@@ -211,7 +229,7 @@ pub fn smooth_program(
     let t0 = Instant::now();
     let flat = smoothed.toolpath.flattened(chord);
     let wopts = ncsmooth_gcode::WriteOptions {
-        decimals,
+        decimals: decimals.min(MAX_DECIMALS),
         chord_mm: chord,
         header: Some(format!(
             "ncsmooth {} --method {} --tol {tol} (from {name})",
@@ -224,16 +242,23 @@ pub fn smooth_program(
     t.write_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let loops = loop_size.map(|size| check_loops(&smoothed.toolpath, size));
-    let dev = if loop_size.is_some() {
-        let flat_no_loops = without_loops(&smoothed.toolpath).flattened(chord);
-        deviation(
-            &flat_no_loops,
-            &program.toolpath,
-            tol * VERIFY_ACCURACY_SHARE,
-        )
-    } else {
-        deviation(&flat, &program.toolpath, tol * VERIFY_ACCURACY_SHARE)
+    // The written text is read back and measured: rounding and the reader's own arc
+    // reconstruction are part of what the machine will run. In loop mode the loops are
+    // measured by their own bound, and the two-sided tolerance on the same text written
+    // without them.
+    let read_back = |text: &str| -> Result<ncsmooth::Toolpath> {
+        ncsmooth_gcode::parse_str(text, name, &Default::default())
+            .map(|p| p.toolpath)
+            .map_err(|e| anyhow::anyhow!("the written G-code does not read back: {e}"))
     };
+    let written = if loop_size.is_some() {
+        let no_loops = without_loops(&smoothed.toolpath).flattened(chord);
+        read_back(&ncsmooth_gcode::write(&no_loops, &wopts))?
+    } else {
+        read_back(&gcode)?
+    };
+    drop(flat);
+    let dev = deviation(&written, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
     let loops_ok = match (loops, loop_size) {
         (Some(l), Some(size)) => l.within(size),
         _ => true,
@@ -246,6 +271,7 @@ pub fn smooth_program(
         tol_mm: tol,
         curve_tol_mm: curve_tol,
         chord_mm: chord,
+        rounding_mm: rounding,
         smoothing: smoothed.report.clone(),
         within_tol: dev.within(tol) && loops_ok,
         deviation: dev,
@@ -261,6 +287,31 @@ pub fn smooth_program(
     })
 }
 
+/// Writes several outputs all or nothing: every file is opened (and its directory checked)
+/// and written before any is moved into place. `-` goes to stdout.
+pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
+    let mut files = Vec::with_capacity(outputs.len());
+    for (path, bytes) in outputs {
+        let Some(path) = path else { continue };
+        if path.as_os_str() == "-" {
+            continue;
+        }
+        let mut f = io::OutputFile::create(path)?;
+        f.write_all(bytes)
+            .with_context(|| format!("writing {}", path.display()))?;
+        files.push(f);
+    }
+    for f in files {
+        f.commit()?;
+    }
+    for (path, bytes) in outputs {
+        if path.is_some_and(|p| p.as_os_str() == "-") {
+            io::print_stdout(&String::from_utf8_lossy(bytes))?;
+        }
+    }
+    Ok(())
+}
+
 /// Runs `smooth`.
 pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     let t0 = Instant::now();
@@ -268,7 +319,14 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     let parse_s = t0.elapsed().as_secs_f64();
     let name = io::display_name(&a.file);
     let base = a.options()?;
-    let mut out = smooth_program(name, &program, base, a.tol, a.chord, a.decimals)?;
+    let mut out = smooth_program(
+        name,
+        &program,
+        base,
+        a.tol,
+        a.chord,
+        usize::from(a.decimals),
+    )?;
     out.report.timings.parse_s = parse_s;
     let r = &out.report;
     if let (Some(l), Some(size)) = (&r.loops, a.loop_size) {
@@ -282,7 +340,7 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     }
     if !r.within_tol {
         bail!(
-            "verification failed: deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) exceeds tol {} mm; nothing written",
+            "verification failed: deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) exceeds tol {:?} mm; nothing written",
             r.deviation.output_to_programmed_mm,
             r.deviation.output_line,
             r.deviation.vertex_to_output_mm,
@@ -291,13 +349,13 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         );
     }
     let json = serde_json::to_string_pretty(r)?;
-    io::write_atomic(&a.output, out.gcode.as_bytes())?;
-    if let Some(rp) = &a.report {
-        io::write_atomic(rp, json.as_bytes())?;
-    }
+    write_outputs(&[
+        (Some(&a.output), out.gcode.as_bytes()),
+        (a.report.as_ref(), json.as_bytes()),
+    ])?;
     let s = &r.smoothing;
     ui.status(format!(
-        "{name}: {} corners smoothed, {} straight, {} stopped; deviation {:.6} / {:.6} mm (tol {} mm); G2 joints {}, G1 {}, G0 {}; {:.3} s",
+        "{name}: {} corners smoothed, {} straight, {} stopped; deviation {:.6} / {:.6} mm (tol {:?} mm); G2 joints {}, G1 {}, G0 {}; {:.3} s",
         s.corners_smoothed,
         s.corners_straight,
         s.corners_stopped,

@@ -1,10 +1,10 @@
 //! Input and output conventions shared by every subcommand: `-` means stdin/stdout, output
-//! files are written atomically (a temporary file in the same directory, then a rename), so
-//! a failure never leaves a partial file behind.
+//! files are written atomically ([`OutputFile`]: a temporary file in the same directory,
+//! then a rename), so a failure never leaves a partial file behind.
 
 use anyhow::{Context, Result};
 use std::io::{Read, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A user error (bad input, bad options): exit code 2.
 #[derive(Debug)]
@@ -29,57 +29,110 @@ pub fn read_input(path: &str) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| BadInput(format!("cannot read {path}: {e}")).into())
 }
 
-/// Writes `bytes` to `path` atomically, or to stdout for `-`.
+/// An output file being written: a temporary file beside the destination, renamed into
+/// place by [`OutputFile::commit`] and removed if dropped uncommitted (an error, a panic),
+/// so a failed run never leaves a partial file behind.
 ///
-/// A regular file (or a new one) is written to a temporary file beside it and renamed into
-/// place; a symbolic link is followed, so the link stays and its target is replaced. A path
-/// that exists and is not a regular file (`/dev/null`, a FIFO, a terminal) is written in
-/// place: renaming over it would replace the device node with a plain file.
+/// A symbolic link is followed (the link stays, its target is replaced). A destination that
+/// exists and is not a regular file (`/dev/null`, a FIFO, a terminal) is written in place:
+/// renaming over it would replace the device node with a plain file.
+pub struct OutputFile {
+    dest: PathBuf,
+    tmp: Option<PathBuf>,
+    file: std::fs::File,
+}
+
+impl OutputFile {
+    /// Opens `path` for writing. A missing directory or a directory as destination is bad
+    /// input (exit 2).
+    pub fn create(path: &Path) -> Result<OutputFile> {
+        match std::fs::metadata(path) {
+            Ok(meta) if meta.is_dir() => {
+                return Err(BadInput(format!("output {} is a directory", path.display())).into());
+            }
+            Ok(meta) if !meta.is_file() => {
+                let file = std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .with_context(|| format!("opening {}", path.display()))?;
+                return Ok(OutputFile {
+                    dest: path.to_path_buf(),
+                    tmp: None,
+                    file,
+                });
+            }
+            _ => {}
+        }
+        let dest = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+        let dir = match dest.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        if !dir.is_dir() {
+            return Err(
+                BadInput(format!("output directory {} does not exist", dir.display())).into(),
+            );
+        }
+        let name = dest
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let tmp = dir.join(format!(".{name}.ncsmooth-tmp-{}", std::process::id()));
+        let file =
+            std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+        Ok(OutputFile {
+            dest,
+            tmp: Some(tmp),
+            file,
+        })
+    }
+
+    /// Flushes the data to disk and moves the file into place.
+    pub fn commit(mut self) -> Result<()> {
+        if let Some(tmp) = self.tmp.take() {
+            let done = self
+                .file
+                .sync_all()
+                .map_err(anyhow::Error::from)
+                .and_then(|()| {
+                    std::fs::rename(&tmp, &self.dest)
+                        .with_context(|| format!("renaming onto {}", self.dest.display()))
+                });
+            if done.is_err() {
+                let _ = std::fs::remove_file(&tmp);
+            }
+            done?;
+        }
+        Ok(())
+    }
+}
+
+impl Write for OutputFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Drop for OutputFile {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` atomically ([`OutputFile`]), or to stdout for `-`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if path.as_os_str() == "-" {
         return print_stdout(&String::from_utf8_lossy(bytes));
     }
-    match std::fs::metadata(path) {
-        Ok(meta) if !meta.is_file() && !meta.is_dir() => {
-            let mut f = std::fs::OpenOptions::new()
-                .write(true)
-                .open(path)
-                .with_context(|| format!("opening {}", path.display()))?;
-            f.write_all(bytes)
-                .with_context(|| format!("writing {}", path.display()))?;
-            return Ok(());
-        }
-        Ok(meta) if meta.is_dir() => {
-            return Err(BadInput(format!("output {} is a directory", path.display())).into());
-        }
-        _ => {}
-    }
-    let resolved = std::fs::canonicalize(path).ok();
-    let path = resolved.as_deref().unwrap_or(path);
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(BadInput(format!("output directory {} does not exist", dir.display())).into());
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.ncsmooth-tmp-{}", std::process::id()));
-    let result = (|| -> Result<()> {
-        let mut f =
-            std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path).with_context(|| format!("renaming onto {}", path.display()))?;
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    let mut f = OutputFile::create(path)?;
+    f.write_all(bytes)
+        .with_context(|| format!("writing {}", path.display()))?;
+    f.commit()
 }
 
 /// Display name of an input path.

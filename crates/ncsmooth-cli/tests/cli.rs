@@ -335,6 +335,22 @@ fn outputs_through_fifos_and_symlinks_keep_the_node() {
         assert!(kind.is_fifo(), "the FIFO was replaced: {kind:?}");
         let got = reader.join().unwrap();
         assert!(got.contains("X10"), "{got}");
+        // The streamed setpoints of `plan` alike.
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+        };
+        let o = run(&[
+            "plan",
+            f.to_str().unwrap(),
+            "--setpoints",
+            fifo.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(kind.is_fifo(), "the FIFO was replaced: {kind:?}");
+        let got = reader.join().unwrap();
+        assert!(got.starts_with("t,x,y,z,feed\n"), "{got}");
     } else {
         eprintln!("mkfifo unavailable: FIFO case skipped");
     }
@@ -349,5 +365,100 @@ fn outputs_through_fifos_and_symlinks_keep_the_node() {
         .file_type()
         .is_symlink());
     assert!(std::fs::read_to_string(&target).unwrap().contains("X10"));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The report measures the G-code as written (read back), rounding included; decimals too
+/// coarse for the tolerance are a usage error (exit 2) and write nothing.
+#[test]
+fn smooth_measures_the_written_text() {
+    let d = tmpdir("written");
+    let f = write(
+        &d,
+        "p.ngc",
+        b"G21 G90\nG0 X0 Y0\nG1 X1.44 Y0 F600\nG1 X1.44 Y1.44\n",
+    );
+    let out = d.join("out.ngc");
+    let rep = d.join("r.json");
+    let smooth = |decimals: &str, tol: &str| {
+        run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            "none",
+            "--decimals",
+            decimals,
+            "--tol",
+            tol,
+            "-o",
+            out.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ])
+    };
+    let o = smooth("1", "0.2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    // X1.44 is written as X1.4: the vertex (1.44, 1.44) is 0.04 * sqrt(2) from the output.
+    let v = r["deviation"]["vertex_to_output_mm"].as_f64().unwrap();
+    assert!((v - 0.04 * 2f64.sqrt()).abs() < 1e-3, "{v}");
+    std::fs::remove_file(&out).unwrap();
+    std::fs::remove_file(&rep).unwrap();
+    let o = smooth("1", "0.05");
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--decimals"));
+    assert!(!out.exists() && !rep.exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A run that cannot write one of its outputs writes none of them (and no temporary file).
+#[test]
+fn outputs_are_all_or_nothing() {
+    let d = tmpdir("allornothing");
+    let f = write(
+        &d,
+        "p.ngc",
+        b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\n",
+    );
+    let sp = d.join("sp.csv");
+    let out = d.join("out.ngc");
+    let o = run(&[
+        "plan",
+        f.to_str().unwrap(),
+        "--setpoints",
+        sp.to_str().unwrap(),
+        "--report",
+        "/nonexistent-dir/r.json",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        "/nonexistent-dir/r.json",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, vec![std::ffi::OsString::from("p.ngc")]);
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -37,10 +37,24 @@ use ncsmooth::path::{Block, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
 use std::fmt::{self, Write as _};
 
+/// Most digits after the point the writer prints; more are clamped to this. 1e-12 mm is
+/// below what an f64 coordinate of a few metres resolves.
+pub const MAX_DECIMALS: usize = 12;
+
+/// Most digits [`push_fixed`] prints: coordinates at [`MAX_DECIMALS`] plus the extra
+/// digits of arc centres.
+pub const PRINT_DECIMALS_MAX: usize = MAX_DECIMALS + CENTRE_EXTRA_DECIMALS;
+
+/// Largest distance (mm) a point moves when each coordinate is rounded to `decimals`
+/// digits (half a unit of the last digit on each of the three axes).
+pub fn rounding_mm(decimals: usize) -> f64 {
+    0.5 * 0.1f64.powi(decimals.min(MAX_DECIMALS) as i32) * 3f64.sqrt()
+}
+
 /// Writer settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WriteOptions {
-    /// Digits after the decimal point (default 4).
+    /// Digits after the decimal point (default 4; at most [`MAX_DECIMALS`]).
     pub decimals: usize,
     /// Prefix every block with `N<k>` (default false).
     pub line_numbers: bool,
@@ -71,7 +85,9 @@ impl Default for WriteOptions {
 /// inserted. The scaling itself rounds, so a value within one ulp of a tie may round
 /// the other way than exact decimal rounding would: the printed value is still within
 /// half a unit of the last digit (plus an ulp) of `v`. Other values use `{:.N}`.
+/// `decimals` is clamped to [`PRINT_DECIMALS_MAX`].
 pub fn push_fixed(s: &mut String, v: f64, decimals: usize) {
+    let decimals = decimals.min(PRINT_DECIMALS_MAX);
     const POW10: [u64; 16] = [
         1,
         10,
@@ -244,6 +260,11 @@ fn set_coord(v: &mut Vec3, i: usize, x: f64) {
 }
 
 impl<W: fmt::Write> Writer<'_, W> {
+    /// Coordinate decimals, clamped to [`MAX_DECIMALS`].
+    fn decimals(&self) -> usize {
+        self.opts.decimals.min(MAX_DECIMALS)
+    }
+
     fn begin(&mut self) {
         self.line.clear();
         if self.opts.line_numbers {
@@ -260,7 +281,8 @@ impl<W: fmt::Write> Writer<'_, W> {
     /// Formats `v` into the scratch buffer.
     fn fmt(&mut self, v: f64) {
         self.scratch.clear();
-        push_fixed(&mut self.scratch, v, self.opts.decimals);
+        let decimals = self.decimals();
+        push_fixed(&mut self.scratch, v, decimals);
     }
 
     /// Appends axis `i` = `v` when forced or changed; updates the written position.
@@ -413,7 +435,7 @@ impl<W: fmt::Write> Writer<'_, W> {
         } else {
             return Ok(false);
         };
-        let unit = 0.1f64.powi(self.opts.decimals.min(300) as i32);
+        let unit = 0.1f64.powi(self.decimals() as i32);
         if a.radius.is_nan() || a.radius < 2.0 * unit || !a.sweep.is_finite() || a.sweep <= 0.0 {
             return Ok(false);
         }
@@ -455,10 +477,11 @@ impl<W: fmt::Write> Writer<'_, W> {
                 continue;
             }
             self.scratch.clear();
+            let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
             push_fixed(
                 &mut self.scratch,
                 coord(a.center, i) - coord(start_written, i),
-                self.opts.decimals + CENTRE_EXTRA_DECIMALS,
+                decimals,
             );
             self.line.push(' ');
             self.line.push(CENTRE[i]);
