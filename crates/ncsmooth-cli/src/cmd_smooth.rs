@@ -206,7 +206,7 @@ pub fn smooth_program(
     let curve_tol = tol - chord - rounding;
     // A tolerance eaten by the flattening chord and the printed decimals is an input
     // error, not something to fail on later.
-    if !(curve_tol > tol * MIN_CURVE_TOL_SHARE) {
+    if curve_tol <= tol * MIN_CURVE_TOL_SHARE || curve_tol.is_nan() {
         return Err(io::BadInput(format!(
             "--tol {tol:?} mm leaves too little room: the flattening chord takes {chord:?} mm \
              and {decimals} decimals round coordinates by up to {rounding:.3e} mm; \
