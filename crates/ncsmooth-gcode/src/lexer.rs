@@ -20,6 +20,9 @@
 //!
 //! After a value the next byte must start a word (a letter or `#`); anything else is an
 //! error. That is how `X1..5` is caught ([`MalformedNumber`](ParseErrorKind::MalformedNumber)).
+//! An `E` written directly against a number (`X1e3`, no space) is exponent notation, which
+//! NGC does not have, and an error rather than an E-axis word; slicer files write
+//! `X1 E3` with a space.
 
 use crate::error::ParseErrorKind;
 use crate::expr::{read_real_value, Params};
@@ -92,6 +95,20 @@ pub(crate) fn compact_line(
         }
     }
     Ok(())
+}
+
+/// True when the `E` at compacted index `e` directly follows a digit or point in the
+/// source (no white space between) and is followed by a digit, sign or point: `X1e3`,
+/// `F1.5E+2`. NGC has no exponent notation, and reading such text as a number followed by
+/// an E-axis word would silently move an extruder axis instead of the intended value.
+fn looks_like_exponent(c: &Cursor<'_>, e: usize) -> bool {
+    if e == 0 || c.map[e] != c.map[e - 1] + 1 {
+        return false;
+    }
+    let before = c.buf[e - 1];
+    let after = c.buf.get(e + 1).copied();
+    (before.is_ascii_digit() || before == b'.')
+        && matches!(after, Some(b'0'..=b'9' | b'+' | b'-' | b'.'))
 }
 
 /// A cursor over a compacted line.
@@ -279,6 +296,17 @@ pub(crate) fn read_block(
                 ))
             }
             b'A'..=b'Z' => {
+                if b == b'E' && looks_like_exponent(&c, start) {
+                    return Err(c.error(
+                        ParseErrorKind::Unsupported {
+                            word: "exponent notation".into(),
+                            why: "G-code numbers have no exponent (write 1000, not 1e3); \
+                                  an E-axis word directly after a number needs a space before it",
+                        },
+                        start.saturating_sub(1),
+                        start + 2,
+                    ));
+                }
                 c.pos += 1;
                 let value = read_real_value(&mut c, params, 0, Some(b))?;
                 words.push(Word {

@@ -87,24 +87,51 @@ pub fn parse_str(src: &str, file_name: &str, opts: &ParseOptions) -> Result<Prog
     parser::Interp::new(src, file_name, opts).run()
 }
 
-/// Parses G-code bytes; invalid UTF-8 is a [`ParseErrorKind::InvalidUtf8`] error at the
-/// first offending byte.
+/// Parses G-code bytes. Text in comments is never interpreted, so bytes that are not UTF-8
+/// there (a `Ø` or `°` from a Windows-1252 CAM post) are read as `?`; invalid UTF-8 outside
+/// comments is a [`ParseErrorKind::InvalidUtf8`] error at the first offending byte. Byte
+/// offsets (and so error locations) are those of `src`.
 pub fn parse_bytes(
     src: &[u8],
     file_name: &str,
     opts: &ParseOptions,
 ) -> Result<Program, ParseError> {
+    let invalid = |src: &[u8], e: std::str::Utf8Error| {
+        let start = e.valid_up_to();
+        let len = e.error_len().unwrap_or(src.len() - start).max(1);
+        ParseError::at(
+            file_name,
+            src,
+            start..(start + len).min(src.len()),
+            ParseErrorKind::InvalidUtf8,
+        )
+    };
     match std::str::from_utf8(src) {
         Ok(s) => parse_str(s, file_name, opts),
-        Err(e) => {
-            let start = e.valid_up_to();
-            let len = e.error_len().unwrap_or(src.len() - start).max(1);
-            Err(ParseError::at(
-                file_name,
-                src,
-                start..(start + len).min(src.len()),
-                ParseErrorKind::InvalidUtf8,
-            ))
+        Err(_) => {
+            let cleaned = non_ascii_comments_replaced(src);
+            match std::str::from_utf8(&cleaned) {
+                Ok(s) => parse_str(s, file_name, opts),
+                Err(e) => Err(invalid(src, e)),
+            }
         }
     }
+}
+
+/// A copy of `src` with every non-ASCII byte inside a `( )` or `;` comment replaced by
+/// `?` (one byte for one byte, so offsets are unchanged).
+fn non_ascii_comments_replaced(src: &[u8]) -> Vec<u8> {
+    let mut out = src.to_vec();
+    let (mut paren, mut semicolon) = (false, false);
+    for b in out.iter_mut() {
+        match *b {
+            b'\n' => (paren, semicolon) = (false, false),
+            b'(' if !semicolon => paren = true,
+            b')' if paren => paren = false,
+            b';' if !paren => semicolon = true,
+            0x80.. if paren || semicolon => *b = b'?',
+            _ => {}
+        }
+    }
+    out
 }

@@ -78,9 +78,11 @@
 //!   error, as in LinuxCNC) and is kept as an event. `G80` together with G0-G3 in one
 //!   block (`G80 G00`, as CAM headers write it) is accepted: the cycle is cancelled and
 //!   the motion code is in force, although LinuxCNC itself rejects two codes of group 1.
-//! * Unused words (for example `K` on a G17 arc, `I` on a line) are warned about and
-//!   ignored. A letter twice in a block is an error; G and M may repeat, but two motion
-//!   codes in one block are a modal-group conflict.
+//! * A centre word of another plane on an arc (`K` on a G17 arc) is an error, as in
+//!   LinuxCNC; under `G90.1` both centre words of the plane are required. Other unused
+//!   words (`I` on a line) are warned about and ignored. A letter twice in a block is an
+//!   error; G and M codes may repeat, but two codes of one modal group in a block (`G90
+//!   G91`, `M3 M5`; `M7 M8` excepted) and more than four M codes are errors, as in LinuxCNC.
 
 use crate::error::{ParseError, ParseErrorKind, Warning};
 use crate::expr::Params;
@@ -156,6 +158,50 @@ fn push_word(s: &mut String, letter: u8, v: f64) {
 struct Code {
     code10: u32,
     word: usize,
+}
+
+/// Most M codes LinuxCNC accepts in one block.
+const MAX_M_CODES_PER_BLOCK: usize = 4;
+/// Number of G modal groups [`g_modal_group`] distinguishes.
+const G_GROUPS: usize = 16;
+/// Number of M modal groups [`m_modal_group`] distinguishes.
+const M_GROUPS: usize = 4;
+
+/// LinuxCNC's modal group of a G code (in tenths: `G90.1` is 901), as an index below
+/// [`G_GROUPS`]; `None` for codes outside the groups. Group 0 (non-modal codes: G4, G10,
+/// G28, G30, G53, G92, ...) also allows only one code per block.
+fn g_modal_group(code10: u32) -> Option<usize> {
+    Some(match code10 {
+        40 | 100 | 280 | 281 | 300 | 301 | 520 | 530 | 920..=923 => 0,
+        // G80 is left out: `G80 G00` in CAM headers is accepted (see the module doc).
+        0 | 10 | 20 | 30 | 330 | 331 | 382..=385 | 730 | 760 | 810..=890 => 1,
+        170 | 171 | 180 | 181 | 190 | 191 => 2,
+        900 | 910 => 3,
+        901 | 911 => 4,
+        930 | 940 | 950 => 5,
+        200 | 210 => 6,
+        400 | 410 | 411 | 420 | 421 => 7,
+        430..=432 | 490 => 8,
+        980 | 990 => 9,
+        540..=593 => 10,
+        610 | 611 | 640 => 11,
+        960 | 970 => 12,
+        70 | 80 => 13,
+        150 | 160 => 14,
+        _ => return None,
+    })
+}
+
+/// LinuxCNC's modal group of an M code (tenths), as an index below [`M_GROUPS`]: stops
+/// (M0 M1 M2 M30 M60), tool change (M6), spindle (M3 M4 M5), coolant (M7 M8 M9).
+fn m_modal_group(code10: u32) -> Option<usize> {
+    Some(match code10 {
+        0 | 10 | 20 | 300 | 600 => 0,
+        60 => 1,
+        30 | 40 | 50 => 2,
+        70 | 80 | 90 => 3,
+        _ => return None,
+    })
 }
 
 /// The interpreter.
@@ -346,6 +392,67 @@ impl<'a> Interp<'a> {
         Ok(())
     }
 
+    /// Rejects two codes of one modal group in a block (LinuxCNC: "two G codes used from
+    /// same modal group"; M7 with M8 is the one allowed pair) and more than
+    /// [`MAX_M_CODES_PER_BLOCK`] M codes. Besides matching LinuxCNC, this bounds how many
+    /// codes of each kind [`Self::block`] has to keep.
+    fn check_modal_groups(&self) -> Result<(), ParseError> {
+        let mut g_seen: [Option<Code>; G_GROUPS] = [None; G_GROUPS];
+        for &c in &self.gcodes {
+            if let Some(g) = g_modal_group(c.code10) {
+                if let Some(prev) = g_seen[g] {
+                    return Err(self.err_word(
+                        c.word,
+                        ParseErrorKind::ModalConflict {
+                            first: code_name('G', prev.code10),
+                            second: code_name('G', c.code10),
+                        },
+                    ));
+                }
+                g_seen[g] = Some(c);
+            }
+        }
+        if self.mcodes.len() > MAX_M_CODES_PER_BLOCK {
+            let c = self.mcodes[MAX_M_CODES_PER_BLOCK];
+            return Err(self.err_word(
+                c.word,
+                ParseErrorKind::InvalidValue {
+                    letter: 'M',
+                    value: f64::from(c.code10) / 10.0,
+                    why: "more than 4 M codes in one block",
+                },
+            ));
+        }
+        let mut m_seen: [Option<Code>; M_GROUPS] = [None; M_GROUPS];
+        for &c in &self.mcodes {
+            if let Some(g) = m_modal_group(c.code10) {
+                if let Some(prev) = m_seen[g] {
+                    let mist_and_flood = matches!((prev.code10, c.code10), (70, 80) | (80, 70));
+                    if !mist_and_flood {
+                        return Err(self.err_word(
+                            c.word,
+                            ParseErrorKind::ModalConflict {
+                                first: code_name('M', prev.code10),
+                                second: code_name('M', c.code10),
+                            },
+                        ));
+                    }
+                }
+                m_seen[g] = Some(c);
+            }
+        }
+        Ok(())
+    }
+
+    /// The G code of the active plane.
+    fn plane_code(&self) -> &'static str {
+        match self.plane {
+            Plane::XY => "G17",
+            Plane::XZ => "G18",
+            Plane::YZ => "G19",
+        }
+    }
+
     fn unsupported(&self, c: Code, why: &'static str) -> ParseError {
         let letter = self.words[c.word].letter as char;
         self.err_word(
@@ -359,6 +466,7 @@ impl<'a> Interp<'a> {
 
     fn block(&mut self) -> Result<(), ParseError> {
         self.classify()?;
+        self.check_modal_groups()?;
 
         // --- G codes: validate and pick up modal changes.
         let mut motion_code: Option<Code> = None;
@@ -954,10 +1062,13 @@ impl<'a> Interp<'a> {
             }
         };
         if self.has(lnormal) {
-            let _ = self.val(lnormal);
-            self.warn(format!(
-                "{} word ignored: it is not a centre word of the active plane",
-                lnormal as char
+            // LinuxCNC: "K word given for arc in XY plane" (and likewise I, J).
+            return Err(self.err_word(
+                self.word_of(lnormal),
+                ParseErrorKind::Unsupported {
+                    word: format!("{} on a {} arc", lnormal as char, self.plane_code()),
+                    why: "it is not a centre offset of the active plane",
+                },
             ));
         }
         let has_centre = self.has(la) || self.has(lb);
@@ -971,6 +1082,17 @@ impl<'a> Interp<'a> {
             (None, true) => {
                 let ia = self.val(la).map(|v| v * scale);
                 let ib = self.val(lb).map(|v| v * scale);
+                if self.arc_absolute {
+                    // Absolute centres have no default: LinuxCNC wants both words.
+                    for (l, v) in [(la, ia), (lb, ib)] {
+                        if v.is_none() {
+                            return Err(self.err_line(ParseErrorKind::MissingWord {
+                                code: "an arc under G90.1".into(),
+                                letter: l as char,
+                            }));
+                        }
+                    }
+                }
                 let (ca, cb) = if self.arc_absolute {
                     (ia.unwrap_or(pa), ib.unwrap_or(pb))
                 } else {

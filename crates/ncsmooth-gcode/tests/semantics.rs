@@ -445,3 +445,82 @@ fn located_errors() {
         ParseErrorKind::MissingWord { letter: 'P', .. }
     ));
 }
+
+#[test]
+fn modal_groups_words_of_other_planes_and_exponents() {
+    // Two codes of one modal group in a block are errors at the second code, as in
+    // LinuxCNC; M7 with M8 (mist and flood) is the allowed pair.
+    for (src, first, second, column) in [
+        ("G90 G91 X1", "G90", "G91", 5),
+        ("G17 G18", "G17", "G18", 5),
+        ("G20 G21", "G20", "G21", 5),
+        ("G90.1 G91.1", "G90.1", "G91.1", 7),
+        ("G4 P1 G53 G0 X1", "G4", "G53", 7),
+        ("M3 M5 S100", "M3", "M5", 4),
+        ("M8 M9", "M8", "M9", 4),
+        ("M0 M30", "M0", "M30", 4),
+    ] {
+        let e = err(src);
+        assert_eq!(
+            e.kind,
+            ParseErrorKind::ModalConflict {
+                first: first.into(),
+                second: second.into()
+            },
+            "{src}"
+        );
+        assert_eq!((e.line, e.column), (1, column), "{src}");
+    }
+    let p = parse("M7 M8\nG80 G0 X1\nM3 M8 M6 T1 M61 Q1");
+    assert!(p.toolpath.events().count() >= 5);
+    let e = err("M3 M8 M6 M61 Q1 M48 T1");
+    assert!(
+        matches!(e.kind, ParseErrorKind::InvalidValue { letter: 'M', .. }),
+        "{e}"
+    );
+    assert_eq!(e.column, 17);
+    // A centre word of another plane on an arc is an error (LinuxCNC: "K word given for
+    // arc in XY plane"); under G90.1 both centre words are needed.
+    let e = err("G0 X10\nG3 X0 Y10 I-10 K1");
+    assert!(
+        matches!(&e.kind, ParseErrorKind::Unsupported { word, .. } if word == "K on a G17 arc"),
+        "{e}"
+    );
+    assert_eq!((e.line, e.column), (2, 16));
+    assert!(matches!(
+        err("G18\nG0 X10\nG3 X0 Z10 I-10 J1").kind,
+        ParseErrorKind::Unsupported { .. }
+    ));
+    let e = err("G90.1\nG0 X20 Y10\nG3 X10 Y20 I10");
+    assert_eq!(
+        e.kind,
+        ParseErrorKind::MissingWord {
+            code: "an arc under G90.1".into(),
+            letter: 'J'
+        }
+    );
+    // Exponent notation is not read as a number followed by an E-axis word.
+    for (src, column) in [("G1 X1e400", 5), ("G1 X1 F1.5E+2", 10), ("G1 X2.E3", 6)] {
+        let e = err(src);
+        assert!(
+            matches!(&e.kind, ParseErrorKind::Unsupported { word, .. } if word == "exponent notation"),
+            "{src}: {e}"
+        );
+        assert_eq!(e.column, column, "{src}");
+    }
+    // With a space, E is the extruder axis of slicer files.
+    let p = parse("G1 X1 E3 F600\nG1 X2 E 4");
+    assert_eq!(p.toolpath.moves().count(), 2);
+}
+
+#[test]
+fn non_utf8_bytes_in_comments_are_harmless() {
+    // Windows-1252 degree and slashed-O signs in comments, as CAM posts write them.
+    let src = b"(TOOL \xd8 6 mm, 90\xb0)\nG0 X1 ; note \xb0\nG1 X2 F100\n";
+    let p = parse_bytes(src, "w.ngc", &ParseOptions::default()).unwrap();
+    assert_eq!(p.toolpath.moves().count(), 2);
+    // Outside a comment the byte is still an error at its place.
+    let e = parse_bytes(b"(\xb0)\nG0 X1 \xb0", "w.ngc", &ParseOptions::default()).unwrap_err();
+    assert_eq!(e.kind, ParseErrorKind::InvalidUtf8);
+    assert_eq!((e.line, e.column, e.byte_range), (2, 7, 10..11));
+}
