@@ -102,7 +102,14 @@ pub fn deviation_segments(
         vertex_line: programmed.first().map(|s| s.1).unwrap_or(0),
         accuracy_mm: accuracy,
     };
+    // One side empty: nothing of the other is near it (both empty: nothing to miss).
     if out_prims.is_empty() || prog_prims.is_empty() {
+        if !prog_prims.is_empty() {
+            dev.vertex_to_output_mm = f64::INFINITY;
+        }
+        if !out_prims.is_empty() {
+            dev.output_to_programmed_mm = f64::INFINITY;
+        }
         return dev;
     }
 
@@ -377,6 +384,18 @@ mod tests {
         let prog = poly(&[Vec3::ZERO, Vec3::new(3.0, 0.0, 0.0)]);
         let d = deviation_segments(&tag(&out), &tag(&prog), 1e-6);
         assert!((d.output_to_programmed_mm - 0.75 * h).abs() <= 1e-6);
+    }
+
+    #[test]
+    fn an_empty_side_is_infinitely_far() {
+        let prog = poly(&[Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0)]);
+        let d = deviation_segments(&[], &tag(&prog), 1e-6);
+        assert_eq!(d.vertex_to_output_mm, f64::INFINITY);
+        assert!(!d.within(1e9));
+        let d = deviation_segments(&tag(&prog), &[], 1e-6);
+        assert_eq!(d.output_to_programmed_mm, f64::INFINITY);
+        let d = deviation_segments(&[], &[], 1e-6);
+        assert!(d.within(0.0));
     }
 
     #[test]
