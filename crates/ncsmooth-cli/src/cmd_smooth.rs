@@ -157,7 +157,9 @@ pub struct SmoothRunReport {
     /// Measured two-sided deviation of the written G-code, read back, from the program
     /// (without the loops in loop mode: the legs still reach every looped corner).
     pub deviation: Deviation,
-    /// Loop mode: the loops' own bound (corner passed, excursion within the loop size).
+    /// Loop mode: the loops' own bound, measured on the curves (corner passed within 1e-9
+    /// mm; excursion within the loop size less `rounding_mm`, so the written loops are
+    /// within the loop size).
     pub loops: Option<LoopCheck>,
     /// Continuity of the smoothed path (before flattening).
     pub continuity: Continuity,
@@ -214,12 +216,27 @@ pub fn smooth_program(
         ))
         .into());
     }
-    let opts = SmoothOptions {
+    let mut opts = SmoothOptions {
         tol_mm: curve_tol,
         ..base
     };
+    // Loops are built to the loop size less the rounding: flattening only cuts chords
+    // inside a loop (its excursion from the corner cannot grow), rounding moves points.
     let loop_size = match (method, opts.trig.corner) {
-        (Method::Trig, CornerStyle::Loop { loop_size_mm }) => Some(loop_size_mm),
+        (Method::Trig, CornerStyle::Loop { loop_size_mm }) => {
+            let build = loop_size_mm - rounding;
+            if build <= loop_size_mm * MIN_CURVE_TOL_SHARE || build.is_nan() {
+                return Err(io::BadInput(format!(
+                    "--loop-size {loop_size_mm:?} mm is too small for {decimals} decimals, \
+                     which round coordinates by up to {rounding:.3e} mm; use more --decimals"
+                ))
+                .into());
+            }
+            opts.trig.corner = CornerStyle::Loop {
+                loop_size_mm: build,
+            };
+            Some(build)
+        }
         _ => None,
     };
     let mut t = Timings::default();
@@ -241,7 +258,7 @@ pub fn smooth_program(
     let gcode = ncsmooth_gcode::write(&flat, &wopts);
     t.write_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let loops = loop_size.map(|size| check_loops(&smoothed.toolpath, size));
+    let loops = loop_size.map(|size| check_loops(&smoothed.toolpath, &program.toolpath, size));
     // The written text is read back and measured: rounding and the reader's own arc
     // reconstruction are part of what the machine will run. In loop mode the loops are
     // measured by their own bound, and the two-sided tolerance on the same text written
@@ -330,11 +347,12 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     out.report.timings.parse_s = parse_s;
     let r = &out.report;
     if let (Some(l), Some(size)) = (&r.loops, a.loop_size) {
-        if !l.within(size) {
+        if !l.within(size - r.rounding_mm) {
             bail!(
-                "verification failed: loops pass their corners within {:.3e} mm and reach {:.6} mm (loop size {size} mm); nothing written",
+                "verification failed: loops pass their corners within {:.3e} mm and reach {:.9e} mm, plus up to {:.3e} mm of rounding (loop size {size:?} mm); nothing written",
                 l.max_corner_miss_mm,
-                l.max_excursion_mm
+                l.max_excursion_mm,
+                r.rounding_mm
             );
         }
     }

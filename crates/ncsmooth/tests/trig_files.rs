@@ -62,11 +62,13 @@ fn run(rel: &str, tol: f64, corner: CornerStyle) -> Option<f64> {
                     let e = c.eval(i as f64 / 400.0).dist(c.q0);
                     assert!(e <= loop_size_mm, "{rel}: loop excursion {e}");
                 }
-                assert!(c.end().dist(c.q0) <= 1e-9);
-                assert!(tp.moves().any(|p| p.segment.end().dist(c.q0) <= 1e-9));
+                assert!(c.eval(1.0).dist(c.eval(0.0)) <= 1e-9);
+                assert!(tp
+                    .moves()
+                    .any(|p| p.segment.end().dist(c.eval(0.0)) <= 1e-9));
             }
         }
-        let lc = check_loops(&s.toolpath, loop_size_mm);
+        let lc = check_loops(&s.toolpath, &tp, loop_size_mm);
         assert_eq!(lc.loops, loops);
         assert!(lc.within(loop_size_mm), "{rel}: {lc:?}");
     }

@@ -29,6 +29,15 @@
 //! interpolating the first `n - 2` points, C1 by eq. 5); [`TrigSpline::free_curve_through`]
 //! adds an end condition so that every point is interpolated.
 //!
+//! ## Reading the paper
+//! * The paper numbers its points `q_0 .. q_n` (`n + 1` points), hence its "`n - 2`
+//!   segments" interpolating `q_0 .. q_(n-2)`; counted in points, as here, `n` points give
+//!   `n - 3` segments. Both say the same.
+//! * "In formulas (7) and (8): s is stand for ..." refers to eqs. (6) and (7) (the
+//!   expanded polynomial and its coordinate form); eq. 8 is the straight line.
+//! * Its Fig. 1 gives no control points; [`crate::smooth::trig_corner::figures`] uses
+//!   documented ones.
+//!
 //! ## Accuracy
 //! Evaluation and both derivatives are analytic. Arc length, its inverse and the nearest
 //! point are numerical ([`arclen_adaptive`], [`inv_arclen_newton`] which is bisection-guarded

@@ -23,7 +23,10 @@
 //! Each leg `V_j V_(j+1)` becomes: the rest of the line between the transitions of its two
 //! ends, or, when an end is smooth, one trig segment ([`TrigSpline::hermite`], `lambda =
 //! 1`) from the leg's start point to its end point with the vertex tangent at smooth ends
-//! and the leg direction at the others; derivative magnitudes equal the chord length.
+//! and the leg direction at the others. At a smooth vertex both segments take the same
+//! derivative, the vertex tangent times the harmonic mean of the two chords, so runs are
+//! C1 as eq. 5 asks; at the other ends the derivative is the leg direction times the
+//! segment's chord.
 //! Every such segment is **measured** with [`deviation_segments`] against the part of its
 //! leg it replaces; when it is not within `tol` for any `lambda` of [`RUN_LAMBDAS`], its
 //! smooth ends become corners (the run is split there) and the plan is redone. This ends,
@@ -38,8 +41,9 @@
 //! second-order one-sided difference, `lambda = 1`) has curvature rippling between 0.5 and
 //! 2.6 times the true one, against 0.81 to 1.28 for Bessel tangents with `lambda = 1`, at
 //! the same deviation. The segments are still the paper's (four control points each, `k =
-//! -1`); the joints are G1 with derivative magnitudes following the chord lengths (C1 after
-//! a per-segment rescaling of the parameter, which the arc-length interpolator does anyway).
+//! -1`), and consecutive segments of a run share their joint derivative (C1). Joints with
+//! lines, transitions and loops are G1 (tangent continuous): a parametric C1 there would
+//! tie the derivative to the line's length, which carries no geometric meaning.
 //!
 //! ## Inside transition (Fig. 9)
 //! At a corner `V` with unit directions `a` (in) and `b` (out), turning by `beta`, the
@@ -646,7 +650,7 @@ fn smooth_lines(
     // Vertex kinds.
     let mut kind = vec![Kind::Fixed; legs + 1];
     let mut turn = vec![0.0; legs + 1];
-    let corner_kind = |j: usize, beta: f64| -> Kind {
+    let corner_kind = |beta: f64| -> Kind {
         let deg = beta.to_degrees();
         if deg < opts.straight_angle_deg || deg > trig.stop_turn_deg {
             return Kind::Fixed;
@@ -656,7 +660,6 @@ fn smooth_lines(
                 return Kind::Loop;
             }
         }
-        let _ = j;
         let rho = round_rho(beta);
         Kind::Round(RoundShape {
             beta,
@@ -676,10 +679,10 @@ fn smooth_lines(
             let t = a * (h1 / (h0 + h1)) + b * (h0 / (h0 + h1));
             match t.normalized() {
                 Some(t) => Kind::Smooth(t),
-                None => corner_kind(j, turn[j]),
+                None => corner_kind(turn[j]),
             }
         } else {
-            corner_kind(j, turn[j])
+            corner_kind(turn[j])
         };
     }
 
@@ -697,14 +700,16 @@ fn smooth_lines(
             let s = poly.v[j] + poly.dir[j] * d[j];
             let e = poly.v[j + 1] - poly.dir[j] * d[j + 1];
             let h = s.dist(e);
+            // One derivative per smooth vertex, shared by the two segments meeting there
+            // (C1); the leg direction and the segment's own chord at the other ends.
             let t0 = match ks {
-                Kind::Smooth(t) => t,
-                _ => poly.dir[j],
-            } * h;
+                Kind::Smooth(t) => t * smooth_speed(&poly, j),
+                _ => poly.dir[j] * h,
+            };
             let t1 = match ke {
-                Kind::Smooth(t) => t,
-                _ => poly.dir[j],
-            } * h;
+                Kind::Smooth(t) => t * smooth_speed(&poly, j + 1),
+                _ => poly.dir[j] * h,
+            };
             let chord = Segment::Line(Line::new(s, e));
             let acc = tol * RUN_MEASURE_SHARE;
             let mut ok = None;
@@ -731,7 +736,7 @@ fn smooth_lines(
         for j in failed {
             for v in [j, j + 1] {
                 if matches!(kind[v], Kind::Smooth(_)) {
-                    kind[v] = corner_kind(v, turn[v]);
+                    kind[v] = corner_kind(turn[v]);
                 }
             }
         }
@@ -839,6 +844,14 @@ fn smooth_lines(
     }
 }
 
+/// Derivative magnitude at smooth vertex `j`: the harmonic mean of its two chords, so the
+/// segments on both sides share one derivative (C1) that stays close to the shorter chord
+/// (the screen keeps neighbouring chords within `ratio_max` of each other).
+fn smooth_speed(poly: &Poly, j: usize) -> f64 {
+    let (h0, h1) = (poly.len[j - 1], poly.len[j]);
+    2.0 * h0 * h1 / (h0 + h1)
+}
+
 /// Transition length `d_j` of every vertex: zero except at round corners, where it is the
 /// tol-limited length clipped to the leg shares (see module doc).
 fn transition_lengths(poly: &Poly, kind: &[Kind], tol: f64) -> Vec<f64> {
@@ -876,7 +889,8 @@ pub struct LoopCheck {
     /// Largest excursion of a loop from its corner (mm): an upper bound (flattened points
     /// plus the flattening accuracy).
     pub max_excursion_mm: f64,
-    /// Largest distance between a loop's ends and its corner (mm).
+    /// Largest distance from a loop's start or end point, as the curve evaluates them, to
+    /// the nearest vertex of the programmed path (mm).
     pub max_corner_miss_mm: f64,
 }
 
@@ -888,10 +902,16 @@ impl LoopCheck {
     }
 }
 
-/// Measures the loops of `tp` (see [`LoopCheck`]); `loop_size_mm` sets the flattening
-/// accuracy.
-pub fn check_loops(tp: &crate::path::Toolpath, loop_size_mm: f64) -> LoopCheck {
+/// Measures the loops of `tp` (see [`LoopCheck`]) against the `programmed` path they were
+/// made from: each loop's evaluated end points against the nearest programmed vertex, its
+/// excursion from that vertex by flattening. `loop_size_mm` sets the flattening accuracy.
+pub fn check_loops(
+    tp: &crate::path::Toolpath,
+    programmed: &crate::path::Toolpath,
+    loop_size_mm: f64,
+) -> LoopCheck {
     let acc = loop_size_mm * LOOP_CHECK_SHARE;
+    let vertices = VertexIndex::new(programmed);
     let mut c = LoopCheck::default();
     for m in tp.moves() {
         let Segment::Trig(t) = &m.segment else {
@@ -901,15 +921,64 @@ pub fn check_loops(tp: &crate::path::Toolpath, loop_size_mm: f64) -> LoopCheck {
             continue;
         }
         c.loops += 1;
+        let (p0, p1) = (t.eval(0.0), t.eval(1.0));
+        let Some(corner) = vertices.nearest(p0) else {
+            c.max_corner_miss_mm = f64::INFINITY;
+            continue;
+        };
         c.max_corner_miss_mm = c
             .max_corner_miss_mm
-            .max(t.start().dist(t.q0))
-            .max(t.end().dist(t.q0));
+            .max(p0.dist(corner))
+            .max(p1.dist(corner));
         let mut e: f64 = 0.0;
-        crate::geom::Flatten::flatten(t, acc, &mut |p| e = e.max(p.dist(t.q0)));
+        crate::geom::Flatten::flatten(t, acc, &mut |p| e = e.max(p.dist(corner)));
         c.max_excursion_mm = c.max_excursion_mm.max(e + acc);
     }
     c
+}
+
+/// Cell size (mm) of [`VertexIndex`]: loops must pass their corner within far less.
+const VERTEX_CELL_MM: f64 = 1e-3;
+
+/// The programmed vertices hashed on a grid, for nearest-vertex queries near a vertex.
+struct VertexIndex {
+    cells: std::collections::HashMap<[i64; 3], Vec<Vec3>>,
+}
+
+impl VertexIndex {
+    fn key(p: Vec3) -> [i64; 3] {
+        [p.x, p.y, p.z].map(|c| (c / VERTEX_CELL_MM).floor() as i64)
+    }
+
+    fn new(tp: &crate::path::Toolpath) -> Self {
+        let mut cells: std::collections::HashMap<[i64; 3], Vec<Vec3>> = Default::default();
+        let mut add = |p: Vec3| cells.entry(Self::key(p)).or_default().push(p);
+        add(tp.start);
+        for m in tp.moves() {
+            add(m.segment.end());
+        }
+        VertexIndex { cells }
+    }
+
+    /// The nearest vertex within one cell of `p`, if any.
+    fn nearest(&self, p: Vec3) -> Option<Vec3> {
+        let k = Self::key(p);
+        let mut best: Option<(f64, Vec3)> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let cell = [k[0] + dx, k[1] + dy, k[2] + dz];
+                    for &v in self.cells.get(&cell).into_iter().flatten() {
+                        let d = v.dist(p);
+                        if best.is_none_or(|(bd, _)| d < bd) {
+                            best = Some((d, v));
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|(_, v)| v)
+    }
 }
 
 /// The program without its loops: the legs still reach every looped corner exactly, so

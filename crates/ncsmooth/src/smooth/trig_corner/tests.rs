@@ -2,7 +2,7 @@ use super::*;
 use crate::geom::{Arc, Flatten, ParamCurveCurvature};
 use crate::path::Toolpath;
 use crate::smooth::{smooth, Method, SmoothOptions, Smoothed};
-use crate::verify::{continuity, deviation, JointClass};
+use crate::verify::{continuity, deviation};
 use proptest::prelude::*;
 
 const ACC_SHARE: f64 = 1e-3;
@@ -47,8 +47,9 @@ fn check(points: &[Vec3], s: &Smoothed, o: &SmoothOptions) -> usize {
             let CornerStyle::Loop { loop_size_mm } = o.trig.corner else {
                 panic!("loop in round mode");
             };
-            assert!(points.iter().any(|p| p.dist(c.q0) <= 1e-9));
-            assert!(c.start().dist(c.q0) <= 1e-9 && c.end().dist(c.q0) <= 1e-9);
+            // The curve itself (not its control point) passes a programmed corner.
+            assert!(points.iter().any(|p| p.dist(c.eval(0.0)) <= 1e-9));
+            assert!(points.iter().any(|p| p.dist(c.eval(1.0)) <= 1e-9));
             let e = loop_excursion(c);
             assert!(e <= loop_size_mm, "excursion {e} > {loop_size_mm}");
         }
@@ -61,7 +62,7 @@ fn check(points: &[Vec3], s: &Smoothed, o: &SmoothOptions) -> usize {
         dev.max_mm()
     );
     if let CornerStyle::Loop { loop_size_mm } = o.trig.corner {
-        let lc = check_loops(&s.toolpath, loop_size_mm);
+        let lc = check_loops(&s.toolpath, &prog, loop_size_mm);
         assert_eq!(lc.loops, loops);
         assert!(lc.within(loop_size_mm), "{lc:?}");
     }
@@ -95,7 +96,7 @@ fn single_corner_uses_the_largest_fitting_transition() {
     let b = Vec3::new(0.0, 1.0, 1.0).normalized().unwrap();
     let tol = 0.05;
     let (c, d) = inside_transition(v, a, b, tol, 100.0).unwrap();
-    assert!(c.start().dist(v - a * d) < 1e-12 && c.end().dist(v + b * d) < 1e-12);
+    assert!(c.eval(0.0).dist(v - a * d) < 1e-12 && c.eval(1.0).dist(v + b * d) < 1e-12);
     assert!(c.deriv(0.0).normalized().unwrap().dist(a) < 1e-12);
     assert!(c.deriv(1.0).normalized().unwrap().dist(b) < 1e-12);
     let prog = [
@@ -125,8 +126,7 @@ fn loop_passes_the_corner_and_stays_within_its_size() {
         let a = Vec3::X;
         let b = Vec3::new(beta.cos(), 0.0, beta.sin());
         let c = loop_corner(v, a, b, 0.5).unwrap();
-        assert!(c.start().dist(v) <= 1e-9 && c.end().dist(v) <= 1e-9);
-        assert!(c.eval(1.0).dist(v) <= 1e-9);
+        assert!(c.eval(0.0).dist(v) <= 1e-9 && c.eval(1.0).dist(v) <= 1e-9);
         assert!(c.deriv(0.0).normalized().unwrap().dist(a) < 1e-12);
         assert!(c.deriv(1.0).normalized().unwrap().dist(b) < 1e-12);
         let e = loop_excursion(&c);
@@ -408,15 +408,73 @@ fn every_loop_range_corner_gets_a_loop() {
     let c = continuity(&s.toolpath);
     assert_eq!(c.g0, 0);
     assert!(c.joints > 0 && c.gaps == 0);
-    let _ = JointClass::G0;
     let mut n = 0;
     for m in s.toolpath.moves() {
         if is_loop(&m.segment) {
-            let mut pts_f = Vec::new();
-            m.segment.flatten(1e-4, &mut |p| pts_f.push(p));
-            assert!(!pts_f.is_empty());
+            // Flattened as the writer does it: the lines return to the corner and stay
+            // within the loop size.
+            let corner = m.segment.eval(0.0);
+            let mut last = corner;
+            let mut far: f64 = 0.0;
+            m.segment.flatten(1e-4, &mut |p| {
+                far = far.max(p.dist(corner));
+                last = p;
+            });
+            assert!(
+                last.dist(corner) <= 1e-9 && far > 0.1 && far <= 1.5,
+                "{far}"
+            );
             n += 1;
         }
     }
     assert_eq!(n, 5);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// A finely sampled smooth curve is one run: its trig segments share their joint
+    /// derivatives (C1, eq. 5), whatever the (screened) spacing of the samples.
+    #[test]
+    fn runs_are_c1(
+        r in 5.0..200.0f64,
+        wiggle in 0.0..0.3f64,
+        steps in prop::collection::vec(0.7..1.4f64, 20..80),
+        tol in 0.002..0.05f64,
+    ) {
+        let mut a = 0.0f64;
+        let mut pts = Vec::with_capacity(steps.len() + 1);
+        let dphi = 0.2 / r.sqrt();
+        for (i, s) in std::iter::once(&0.0).chain(&steps).enumerate() {
+            a += s * dphi;
+            let rr = r * (1.0 + wiggle * (3.0 * a).sin());
+            pts.push(Vec3::new(rr * a.cos(), rr * a.sin(), 0.01 * i as f64));
+        }
+        let tp = Toolpath::from_polyline(&pts, Some(10.0));
+        let o = opts(tol, CornerStyle::Round);
+        let s = smooth(&tp, &o).unwrap();
+        check(&pts, &s, &o);
+        let moves: Vec<_> = s.toolpath.moves().collect();
+        let mut run_joints = 0;
+        for w in moves.windows(2) {
+            let (Segment::Trig(c0), Segment::Trig(c1)) = (&w[0].segment, &w[1].segment) else {
+                continue;
+            };
+            // A joint of two trig segments on a programmed vertex that turns is a smooth
+            // vertex of a run (transitions are cut around their vertex; straight vertices
+            // pass unchanged and are only G1).
+            let Some(i) = pts.iter().position(|q| *q == c0.q1) else { continue };
+            if i == 0 || i + 1 == pts.len() {
+                continue;
+            }
+            let turn = (pts[i] - pts[i - 1]).angle_to(pts[i + 1] - pts[i]).to_degrees();
+            if turn < o.straight_angle_deg {
+                continue;
+            }
+            let (d0, d1) = (c0.deriv(1.0), c1.deriv(0.0));
+            prop_assert!(d0.dist(d1) <= 1e-9 * d0.norm().max(1.0), "{:?} {:?}", d0, d1);
+            run_joints += 1;
+        }
+        prop_assert!(run_joints > 0 || s.report.runs_fitted == 0);
+    }
 }
