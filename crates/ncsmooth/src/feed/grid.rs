@@ -5,17 +5,48 @@
 //! profile inside a straight interval may accelerate, cruise and decelerate, so no
 //! subdivision is needed). Arcs and curves are first cut uniformly in their parameter
 //! (no longer than about [`MAX_CURVE_DS_MM`], at least [`MIN_CURVE_INTERVALS`] per move,
-//! per knot span for NURBS), then intervals are bisected until the tangent turns by at
-//! most [`MAX_TURN_DEG`] and the curvature vector changes by at most
-//! [`MAX_CURVATURE_CHANGE`] of its size between their ends; their arc lengths come from
-//! Gauss-Legendre quadrature checked to [`crate::interp::STEP_ARCLEN_ACCURACY_MM`]
-//! ([`crate::interp::step_arclen`]), the move's total from adaptive quadrature at
-//! [`ARCLEN_ACCURACY_MM`] (the last interval takes the remainder).
+//! per knot span for NURBS); their arc lengths come from Gauss-Legendre quadrature checked
+//! to [`crate::interp::STEP_ARCLEN_ACCURACY_MM`] ([`crate::interp::step_arclen`]), the
+//! move's total from adaptive quadrature at [`ARCLEN_ACCURACY_MM`] (the last interval
+//! takes the remainder).
+//!
+//! ## Refinement of curved intervals
+//! The planner imposes the per-axis acceleration `a_i = u T_i + x K_i` exactly at both
+//! ends of an interval, with `u` constant and `x = v^2` linear in `s` inside it. Between
+//! the ends `a_i` then differs from the straight line between its end values by three
+//! terms, and an interval is bisected until each is a small share of `A_i` (together well
+//! inside the [`super::ACC_PLANNING_FACTOR`] reserve):
+//!
+//! 1. the tangent's rotation: `u T_i` leaves the chord of its end values by up to
+//!    `|u| (1 - cos(turn / 2))`, kept within [`TANGENT_SHARE`]` A_i` (and the turn within
+//!    [`MAX_TURN_DEG`] for the velocity limits);
+//! 2. the product of two linear functions: `x K_i` bulges by `|dx dK_i| / 4` with
+//!    `dx = 2 u ds`, so `|u| ds |dK_i| / 2 <= `[`PRODUCT_SHARE`]` A_i`, with `|u|` bounded
+//!    by the largest tangential acceleration the end rows can allow ([`u_bound`]); this
+//!    term shrinks with the square of the interval, so curvature that changes fast over a
+//!    short transition needs only a few intervals;
+//! 3. curvature that is not linear in `s` inside the interval: checked at the quarter
+//!    points against the chord of the end values, within [`MAX_CURVATURE_BEND`] of the
+//!    larger of the local curvature and the floor `min_i A_i / vcap^2` (the curvature at
+//!    which the move's speed cap alone uses the smallest axis acceleration; below it the
+//!    speed cap, not the curvature, limits `x`), so `x |dK| <= ` that share of `A`.
+//!
+//! Arcs and helices have constant curvature turning with the swept angle `phi` of an
+//! interval, so the three terms are `|u| phi^2 / 8`, `|u| phi^2 / 2` and `A phi^2 / 8`:
+//! arcs are cut uniformly at the largest sweep keeping all three within their shares
+//! ([`arc_step`]), with no refinement.
+//!
+//! Earlier versions bisected until the curvature vector changed by 0.5 % of its size
+//! between interval ends; that resolved the flat ends of every B-spline or trigonometric
+//! transition to a few nanometres (400 grid points per corner on butterfly_1000) without
+//! bounding curvature bumps inside an interval.
 //! Zero-length moves (below [`crate::verify::DEGENERATE_MM`]) are dropped: their extra-axis
 //! change, if any, happens at once at their position (a known limitation: extra axes
 //! ride along and are not planned).
 
-use super::limits::{g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, Caps, Interval};
+use super::limits::{
+    g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, Caps, Interval, NEGLIGIBLE,
+};
 use super::{PlanOptions, StopReason};
 use crate::geom::{
     arclen_adaptive, ParamCurve, ParamCurveCurvature, ParamCurveDeriv, Segment, Vec3,
@@ -23,8 +54,14 @@ use crate::geom::{
 use crate::path::{Block, EventKind, ExtraAxes, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
 
-/// Largest tangent turn (degrees) inside one curved grid interval.
-pub const MAX_TURN_DEG: f64 = 1.25;
+/// Largest tangent turn (degrees) inside one curved grid interval, whatever the
+/// accelerations: a per-axis velocity limit checked at the ends is exceeded inside by at
+/// most `1 / cos(turn / 2) - 1` (6e-4), within the [`super::VAXIS_PLANNING_FACTOR`]
+/// reserve. The acceleration terms usually allow less (see [`TANGENT_SHARE`]).
+pub const MAX_TURN_DEG: f64 = 4.0;
+/// Share of the axis acceleration allowed for the tangent's rotation inside an interval
+/// (term 1 of the module doc): `|u| (1 - cos(turn / 2)) <= share A`.
+pub const TANGENT_SHARE: f64 = 0.001;
 /// Longest curved grid interval (mm).
 pub const MAX_CURVE_DS_MM: f64 = 0.5;
 /// Fewest intervals per curved move (per knot span for NURBS).
@@ -33,14 +70,13 @@ pub const MIN_CURVE_INTERVALS: usize = 2;
 pub const MAX_CURVE_INTERVALS: usize = 1 << 20;
 /// Accuracy (mm) of the arc lengths of curved intervals.
 pub const ARCLEN_ACCURACY_MM: f64 = 1e-10;
-/// Largest change of the curvature vector over one curved interval (its caps are checked
-/// at the ends only), relative to the larger of the end curvatures and of the curvature
-/// floor `min_i A_i / vcap^2`: the curvature at which the move's speed cap alone uses the
-/// smallest axis acceleration. Below that floor a change is judged by the normal
-/// acceleration it can cause at the cap, `vcap^2 dK <= 0.005 A`, well inside the 1 %
-/// planning reserve; relative to zero curvature alone (the flat ends of a B-spline
-/// transition) the refinement would never stop.
-pub const MAX_CURVATURE_CHANGE: f64 = 0.005;
+/// Share of the axis acceleration allowed for the bulge of `x K_i` inside an interval
+/// (term 2 of the module doc).
+pub const PRODUCT_SHARE: f64 = 0.004;
+/// Largest distance of the curvature vector at an interval's quarter points from the
+/// chord of its end values, relative to the local curvature or the floor (term 3 of the
+/// module doc).
+pub const MAX_CURVATURE_BEND: f64 = 0.004;
 /// Smallest parameter step of the interval refinement.
 const MIN_PARAM_STEP: f64 = 1e-9;
 /// Parameter offset used to read the curvature next to a zero-speed end.
@@ -365,10 +401,172 @@ pub struct GridPoint {
     pub stop: Option<(StopReason, f64)>,
 }
 
+/// Bound on the tangential acceleration `|u|` (mm/s^2) the end rows of a curved interval
+/// starting with unit tangent `t` can allow: every axis has `|u T_j| <= A_j + x |K_j| <=
+/// 2 A_j` (the curvature cap holds `x |K_j| <= A_j`), so `|u| <= min_j 2 A_j / |T_j|`,
+/// at most `2 sqrt(3) max_j A_j`. Inside the interval a tangent component moves by at most
+/// the turn, [`MAX_TURN_DEG`], which the denominators allow for.
+pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {
+    let turn = MAX_TURN_DEG.to_radians();
+    let mut u = 2.0 * 3f64.sqrt() * caps.acc.iter().copied().fold(0.0, f64::max);
+    for j in 0..3 {
+        let tj = t[j].abs() - turn;
+        if tj > NEGLIGIBLE {
+            u = u.min(2.0 * caps.acc[j] / tj);
+        }
+    }
+    u
+}
+
+/// Largest swept angle (radians) of an arc interval (see the module doc), with `|u|`
+/// at its global bound [`u_bound`] (the tangent of an arc turns).
+pub fn arc_step(caps: &Caps) -> f64 {
+    let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
+    let u = 2.0 * 3f64.sqrt() * caps.acc.iter().copied().fold(0.0, f64::max) / a_min;
+    let by_tangent = (8.0 * TANGENT_SHARE / u).sqrt();
+    let by_product = (2.0 * PRODUCT_SHARE / u).sqrt();
+    let by_bend = (8.0 * MAX_CURVATURE_BEND).sqrt();
+    by_tangent
+        .min(by_product)
+        .min(by_bend)
+        .min(MAX_TURN_DEG.to_radians())
+}
+
+/// Largest tangent turn (radians) of a curve interval starting with unit tangent `t`:
+/// term 1 of the module doc with the local [`u_bound`], at most [`MAX_TURN_DEG`].
+fn max_turn_at(t: Vec3, caps: &Caps) -> f64 {
+    let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
+    let u = u_bound(t, caps) / a_min;
+    // 1 - cos(turn / 2) <= share / u, i.e. turn <= 2 acos(1 - share / u).
+    let c = (1.0 - TANGENT_SHARE / u).clamp(-1.0, 1.0);
+    (2.0 * c.acos()).min(MAX_TURN_DEG.to_radians())
+}
+
+/// Cap on `x = v^2` from the per-axis velocity limits `v` over a whole curved interval: a
+/// tangent component turning by `phi` between the ends exceeds the larger end value by at
+/// most the factor `1 / cos(phi / 2)` inside.
+fn vaxis_interval_cap(iv: &Interval, v: &[f64; 3]) -> f64 {
+    let grow = 1.0 / (0.5 * iv.t0.angle_to(iv.t1)).cos();
+    let mut x = f64::INFINITY;
+    for i in 0..3 {
+        let t = iv.t0[i].abs().max(iv.t1[i].abs()) * grow;
+        if t > NEGLIGIBLE {
+            x = x.min((v[i] / t).powi(2));
+        }
+    }
+    x
+}
+
+/// Arc length of a piece of curve from its chord and the angle between its end tangents,
+/// as on a circular arc: `chord (turn/2) / sin(turn/2)`. For the grid's intervals (turn at
+/// most [`MAX_TURN_DEG`]) the whole correction is below 2e-5 of the chord and its error
+/// of a higher order; the move's last interval takes the remainder of the move's exact
+/// length, so the grid never drifts from the path's arc length.
+fn arc_from_chord(chord: f64, turn: f64) -> f64 {
+    let h = 0.5 * turn;
+    if h < 1e-4 {
+        chord * (1.0 + h * h / 6.0)
+    } else {
+        chord * h / h.sin()
+    }
+}
+
+/// Geometry sample: parameter, unit tangent, curvature vector, point.
+type Sample = (f64, Vec3, Vec3, Vec3);
+
+/// Grid parameters of a curved move: `n0` uniform intervals, bisected (when `split`) until
+/// the three terms of the module doc are within their shares. `geo` gives the unit
+/// tangent, curvature vector and point at a parameter. Returns the accepted samples, first
+/// `t = 0`, last `t = 1`.
+fn refine(
+    n0: usize,
+    split: bool,
+    vcap_mm_s: f64,
+    caps: &Caps,
+    geo: &impl Fn(f64) -> (Vec3, Vec3, Vec3),
+) -> Vec<Sample> {
+    let sample = |t: f64| {
+        let (tt, kk, p) = geo(t);
+        (t, tt, kk, p)
+    };
+    let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
+    let k_floor = if vcap_mm_s > 0.0 && vcap_mm_s.is_finite() {
+        a_min / (vcap_mm_s * vcap_mm_s)
+    } else {
+        0.0
+    };
+    let mut params: Vec<Sample> = Vec::with_capacity(n0 + 1);
+    params.push(sample(0.0));
+    // Pending right ends, with the interval's midpoint sample when already known.
+    let mut stack: Vec<(Sample, Option<Sample>)> = (1..=n0)
+        .rev()
+        .map(|i| (sample(i as f64 / n0 as f64), None))
+        .collect();
+    while let Some(&(right, known_mid)) = stack.last() {
+        let left = *params.last().expect("non-empty");
+        let (t0, t1) = (left.0, right.0);
+        let can_split =
+            split && params.len() + stack.len() < MAX_CURVE_INTERVALS && t1 - t0 > MIN_PARAM_STEP;
+        if !can_split {
+            params.push(right);
+            stack.pop();
+            continue;
+        }
+        let mid = known_mid.unwrap_or_else(|| sample(0.5 * (t0 + t1)));
+        let mut bad = left.1.angle_to(right.1) > max_turn_at(left.1, caps);
+        if !bad {
+            // Term 2: |u| ds |dK_i| / 2 <= share A_i (ds from the chord, a lower bound of
+            // the arc that is within 1e-4 of it at the turn bound).
+            let ds = left.3.dist(right.3);
+            let dk = right.2 - left.2;
+            let half_u = 0.5 * u_bound(left.1, caps);
+            bad = (0..3).any(|i| half_u * ds * dk[i].abs() > PRODUCT_SHARE * caps.acc[i]);
+        }
+        let (mut q1, mut q3) = (None, None);
+        if !bad {
+            // Term 3: the curvature at the quarter points and the midpoint against the
+            // chord of the end values, at the sample's share of the arc length (the
+            // parameter is not proportional to it; chords measure it within the turn
+            // bound).
+            let kref = left
+                .2
+                .norm()
+                .max(right.2.norm())
+                .max(mid.2.norm())
+                .max(k_floor);
+            let lim = MAX_CURVATURE_BEND * kref + 1e-12;
+            let off = |q: &Sample| {
+                let (a, b) = (left.3.dist(q.3), q.3.dist(right.3));
+                let f = if a + b > 0.0 { a / (a + b) } else { 0.5 };
+                (q.2 - (left.2 * (1.0 - f) + right.2 * f)).norm() > lim
+            };
+            bad = off(&mid);
+            if !bad {
+                let a = sample(t0 + 0.25 * (t1 - t0));
+                let b = sample(t0 + 0.75 * (t1 - t0));
+                bad = off(&a) || off(&b);
+                (q1, q3) = (Some(a), Some(b));
+            }
+        }
+        if bad {
+            // Bisect: the right half keeps `right` with `q3` as its midpoint; the left half
+            // ends at `mid` with `q1` as its midpoint.
+            stack.last_mut().expect("non-empty").1 = q3;
+            stack.push((mid, q1));
+        } else {
+            params.push(right);
+            stack.pop();
+        }
+    }
+    params
+}
+
 /// Lazily generates grid points and intervals from a [`PathIndex`].
 pub struct GridGen<'p, 'a> {
     index: &'p PathIndex<'a>,
     caps: Caps,
+    /// Swept angle of arc intervals ([`arc_step`]).
+    arc_step: f64,
     next_move: usize,
     /// Pending intervals of the current move, with their end-point caps (reversed).
     pending: Vec<(Interval, f64)>,
@@ -379,9 +577,11 @@ pub struct GridGen<'p, 'a> {
 impl<'p, 'a> GridGen<'p, 'a> {
     /// A generator at the start of the program.
     pub fn new(index: &'p PathIndex<'a>, opts: &PlanOptions) -> Self {
+        let caps = caps_of(opts);
         GridGen {
             index,
-            caps: caps_of(opts),
+            arc_step: arc_step(&caps),
+            caps,
             next_move: 0,
             pending: Vec::new(),
             blended: 0,
@@ -434,65 +634,35 @@ impl<'p, 'a> GridGen<'p, 'a> {
             }
             seg => {
                 let sp = spans(seg);
-                // Arcs and helices: curvature of constant size whose direction turns with
-                // the swept angle, so uniform steps of at most MAX_TURN_DEG of sweep bound
-                // both the tangent and the curvature-vector rotation (an end-point check
-                // then misses an interior maximum by at most 1 - cos(step / 2), 6e-5),
-                // with no refinement.
+                // Arcs and helices: uniform steps of `arc_step` of sweep (module doc).
                 let arc_steps = match seg {
-                    Segment::Arc(a) => Some((a.sweep / MAX_TURN_DEG.to_radians()).ceil() as usize),
+                    Segment::Arc(a) => Some((a.sweep / self.arc_step).ceil() as usize),
                     _ => None,
                 };
                 let n0 = ((m.len / MAX_CURVE_DS_MM).ceil() as usize)
                     .max(MIN_CURVE_INTERVALS * sp)
                     .max(arc_steps.unwrap_or(0))
                     .min(MAX_CURVE_INTERVALS);
-                let geo = |t: f64| (tangent_at(seg, t), curvature_at(seg, t));
-                // Uniform start, then bisection where the tangent turns too much or the
-                // curvature changes too much between the two ends of an interval.
-                let mut params: Vec<(f64, Vec3, Vec3)> = Vec::with_capacity(n0 + 1);
-                let first = geo(0.0);
-                params.push((0.0, first.0, first.1));
-                let mut stack: Vec<(f64, Vec3, Vec3)> = Vec::new();
-                for i in (1..=n0).rev() {
-                    let t = i as f64 / n0 as f64;
-                    let (tt, kk) = geo(t);
-                    stack.push((t, tt, kk));
-                }
-                let max_turn = MAX_TURN_DEG.to_radians();
-                let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
-                let k_floor = if m.vcap_mm_s > 0.0 && m.vcap_mm_s.is_finite() {
-                    a_min / (m.vcap_mm_s * m.vcap_mm_s)
-                } else {
-                    0.0
+                let params = match seg {
+                    Segment::Arc(a) => refine(n0, false, m.vcap_mm_s, caps, &|t| {
+                        let (p, tt, kk) = a.frame(t);
+                        (tt, kk, p)
+                    }),
+                    _ => refine(n0, true, m.vcap_mm_s, caps, &|t| {
+                        (tangent_at(seg, t), curvature_at(seg, t), seg.eval(t))
+                    }),
                 };
-                while let Some(&(t1, tt1, kk1)) = stack.last() {
-                    let &(t0, tt0, kk0) = params.last().expect("non-empty");
-                    let kmax = kk0.norm().max(kk1.norm()).max(k_floor);
-                    let split = arc_steps.is_none()
-                        && params.len() + stack.len() < MAX_CURVE_INTERVALS
-                        && t1 - t0 > MIN_PARAM_STEP
-                        && (tt0.angle_to(tt1) > max_turn
-                            || (kk1 - kk0).norm() > MAX_CURVATURE_CHANGE * kmax + 1e-9);
-                    if split {
-                        let tm = 0.5 * (t0 + t1);
-                        let (tt, kk) = geo(tm);
-                        stack.push((tm, tt, kk));
-                    } else {
-                        params.push((t1, tt1, kk1));
-                        stack.pop();
-                    }
-                }
+                let first = (params[0].1, params[0].2);
                 let mut start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);
                 let mut out: Vec<(Interval, f64)> = Vec::with_capacity(params.len());
                 let mut s_acc = 0.0;
                 let last = params.len() - 1;
                 for (i, w) in params.windows(2).enumerate() {
-                    let ((a, t0, k0), (b, t1, k1)) = (w[0], w[1]);
+                    let ((_, t0, k0, p0), (_, t1, k1, p1)) = (w[0], w[1]);
                     let ds = if i + 1 == last {
                         (m.len - s_acc).max(0.0)
                     } else {
-                        crate::interp::step_arclen(seg, a, b)
+                        arc_from_chord(p0.dist(p1), t0.angle_to(t1))
                     };
                     s_acc += ds;
                     let cap = point_cap_x(t1, k1, m.vcap_mm_s, caps);
@@ -512,6 +682,21 @@ impl<'p, 'a> GridGen<'p, 'a> {
                         ));
                     } else if let Some(last) = out.last_mut() {
                         last.1 = last.1.min(cap);
+                    }
+                }
+                if let (Some(v), false) = (caps.vaxis, out.is_empty()) {
+                    // Per-axis velocity over a whole interval: both of its ends take the
+                    // cap of the largest tangent component inside it (the point caps
+                    // alone let `v |T_i|` bulge between two binding ends).
+                    let n = out.len();
+                    for k in 0..n {
+                        let c = vaxis_interval_cap(&out[k].0, &v);
+                        if k == 0 {
+                            start_cap = start_cap.min(c);
+                        } else {
+                            out[k - 1].1 = out[k - 1].1.min(c);
+                        }
+                        out[k].1 = out[k].1.min(c);
                     }
                 }
                 if let (Some(j), false) = (caps.jerk, out.is_empty()) {

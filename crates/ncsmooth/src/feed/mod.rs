@@ -4,7 +4,8 @@
 //! ## Model
 //! The path is parameterised by its arc length `s` (mm). Planning works in the phase plane
 //! of `x = v^2` against `s`, on a grid of points `s_k` ([`grid`]): at every move boundary,
-//! and inside arcs and curves every [`grid::MAX_TURN_DEG`] of tangent turn. On each grid
+//! and inside arcs and curves as densely as the error terms between two checks require
+//! (see the [`grid`] doc). On each grid
 //! interval the tangential acceleration `u = dv/dt = (x_{k+1} - x_k) / (2 ds)` is
 //! constant, so `x` is linear in `s` (the trapezoid, "linear acceleration" profile of Wu
 //! et al. section IV, generalised to per-axis limits as in TOPP-RA).
@@ -20,7 +21,9 @@
 //! * per-axis acceleration on every interval: `|u T_i + x K_i| <= A_i`, imposed exactly
 //!   (as linear constraints in `(x_k, x_{k+1})`) at *both* ends of the interval, with the
 //!   geometry of that side. For lines this is exact everywhere; inside arcs and curves the
-//!   grid is fine enough that the tangent turns by at most a few degrees between checks.
+//!   grid is refined until what can happen between the checks (the tangent's turn, the
+//!   product of the linear `x` with the changing curvature, curvature bumps) stays within
+//!   a stated share of the limit, inside the planning reserve below.
 //!
 //! ## Joints
 //! A tangent break (turn above [`crate::verify::TANGENT_TOL_DEG`]) at non-zero speed is an
@@ -76,9 +79,9 @@ use serde::Serialize;
 
 /// Fraction of the acceleration limits the planner uses (see the module doc).
 pub const ACC_PLANNING_FACTOR: f64 = 0.99;
-/// Fraction of the per-axis velocity limits the planner uses: they are checked at grid
-/// points, and inside a curved interval (tangent turn at most [`grid::MAX_TURN_DEG`]) a
-/// tangent component can exceed its end values by about `1 / cos(turn / 2) - 1`, 6e-5.
+/// Fraction of the per-axis velocity limits the planner uses, a reserve for the
+/// interpolator's sub-micrometre position errors; inside curved intervals the velocity
+/// caps already allow for the tangent's turn (see [`grid`]).
 pub const VAXIS_PLANNING_FACTOR: f64 = 0.999;
 
 /// Machine limits and planning settings.

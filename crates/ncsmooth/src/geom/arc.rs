@@ -177,6 +177,22 @@ impl Arc {
     }
 }
 
+impl Arc {
+    /// Point, unit tangent and curvature vector at `t`, from one `sin_cos` (the planner
+    /// samples arcs densely). The second derivative is radial, hence perpendicular to the
+    /// first even on a helix, so the curvature vector is `C'' / |C'|^2`.
+    #[inline]
+    pub fn frame(&self, t: f64) -> (Vec3, Vec3, Vec3) {
+        let (s, c) = (self.sweep * t).sin_cos();
+        let radial = self.u * c + self.v * s;
+        let p = self.center + radial * self.radius + self.axial * t;
+        let d1 = (self.v * c - self.u * s) * (self.radius * self.sweep) + self.axial;
+        let speed_sq = d1.norm_sq();
+        let d2 = radial * (-self.radius * self.sweep * self.sweep);
+        (p, d1 / speed_sq.sqrt(), d2 / speed_sq)
+    }
+}
+
 impl ParamCurve for Arc {
     #[inline]
     fn eval(&self, t: f64) -> Vec3 {
@@ -350,6 +366,26 @@ mod tests {
         assert_abs_diff_eq!(h.curvature(0.4), 5.0 / (25.0 + c * c), epsilon = 1e-12);
         let arclen_num = arclen_adaptive(&h, 0.0, 1.0, 1e-10);
         assert_abs_diff_eq!(arclen_num, h.length(), epsilon = 1e-9);
+    }
+
+    #[test]
+    fn frame_matches_the_traits() {
+        let a = Arc::from_center(
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(-2.0, 1.0, 4.5),
+            Vec3::new(0.0, 0.0, 3.0),
+            Vec3::new(0.0, 0.2, 1.0),
+            true,
+            1,
+        )
+        .unwrap();
+        for i in 0..=10 {
+            let t = i as f64 / 10.0;
+            let (p, tan, k) = a.frame(t);
+            assert!(p.dist(a.eval(t)) < 1e-12);
+            assert!(tan.dist(a.deriv(t).normalized().unwrap()) < 1e-12);
+            assert!(k.dist(a.curvature_vec(t)) < 1e-12);
+        }
     }
 
     #[test]
