@@ -238,6 +238,10 @@ pub struct PlanReport {
     pub real_time_factor: f64,
 }
 
+/// Planned samples collected before they are interpolated and written (and their time is
+/// taken).
+const EMIT_BATCH: usize = 512;
+
 /// Interpolates a batch of planned samples `(t, s, v)` and writes them (the first write
 /// error is kept and later writes skipped), adding the time of each stage to `times`
 /// (interpolation, writing).
@@ -249,6 +253,9 @@ fn emit_batch<W: Write>(
     err: &mut Option<io::Error>,
     times: (&mut f64, &mut f64),
 ) {
+    if batch.is_empty() {
+        return;
+    }
     let c0 = Instant::now();
     points.clear();
     points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
@@ -327,25 +334,27 @@ pub fn execute<W: Write>(
                     (reason == StopReason::End).then_some(k)
                 }
             };
-            batch.clear();
             while (n as f64) * period <= f.t_known || last.is_some_and(|k| n <= k) {
                 let time = n as f64 * period;
                 let (s, v) = f.sample(time);
                 batch.push((time, s, v));
                 n += 1;
             }
-            emit_batch(
-                &batch,
-                &mut points,
-                &mut interp,
-                &mut writer,
-                &mut err,
-                (&mut interp_s, &mut write_s),
-            );
+            if batch.len() >= EMIT_BATCH || last.is_some() {
+                emit_batch(
+                    &batch,
+                    &mut points,
+                    &mut interp,
+                    &mut writer,
+                    &mut err,
+                    (&mut interp_s, &mut write_s),
+                );
+                batch.clear();
+            }
         }
         PlanEvent::Piece(pc) => {
-            // Samples of this piece, interpolated and written in two timed batches.
-            batch.clear();
+            // Samples of this piece; interpolated and written in timed batches of several
+            // pieces.
             while (n as f64) * period < t + pc.dt {
                 let time = n as f64 * period;
                 let (s, v) = pc.at(time - t);
@@ -353,9 +362,20 @@ pub fn execute<W: Write>(
                 n += 1;
             }
             t += pc.dt;
-            if batch.is_empty() {
-                return;
+            if batch.len() >= EMIT_BATCH {
+                emit_batch(
+                    &batch,
+                    &mut points,
+                    &mut interp,
+                    &mut writer,
+                    &mut err,
+                    (&mut interp_s, &mut write_s),
+                );
+                batch.clear();
             }
+        }
+        PlanEvent::Stop { s, reason, dwell_s } => {
+            // The motion before the stop first.
             emit_batch(
                 &batch,
                 &mut points,
@@ -364,8 +384,7 @@ pub fn execute<W: Write>(
                 &mut err,
                 (&mut interp_s, &mut write_s),
             );
-        }
-        PlanEvent::Stop { s, reason, dwell_s } => {
+            batch.clear();
             let rest_end = t + dwell_s;
             let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
             if reason == StopReason::End {
@@ -393,6 +412,15 @@ pub fn execute<W: Write>(
             t = k as f64 * period;
         }
     });
+    // Every program ends with a stop, which flushes the batch; this is for safety only.
+    emit_batch(
+        &batch,
+        &mut points,
+        &mut interp,
+        &mut writer,
+        &mut err,
+        (&mut interp_s, &mut write_s),
+    );
     if let Some(e) = err {
         return Err(PlanError::Io(e));
     }
