@@ -54,8 +54,8 @@ fn wu_setting_on_profiles() {
             // Unsmoothed micro-lines: every tangent break is an exact stop.
             assert!(r.exact_stops.corner > 0);
         }
-        // Wu's own methods: the micro-lines fitted and the corners blended.
-        for m in [Method::Arc, Method::Nurbs] {
+        // Every smoothing method: the micro-lines fitted or their corners blended.
+        for m in [Method::Arc, Method::Nurbs, Method::Bspline, Method::Trig] {
             if let Some(r) = wu(f, m) {
                 assert!(r.exact_stops.corner <= 1, "{f} {m:?}: {:?}", r.exact_stops);
             }
@@ -70,7 +70,7 @@ fn wu_setting_on_profiles() {
 #[ignore]
 fn wu_setting_with_jerk() {
     for f in ["profiles/butterfly_1000.ngc", "profiles/crown.ngc"] {
-        for m in [Method::Arc, Method::Nurbs] {
+        for m in [Method::Arc, Method::Nurbs, Method::Bspline, Method::Trig] {
             if let Some(r) = wu_with(f, m, Some(5000.0)) {
                 assert!(r.limits_held, "{f} {m:?}: {:?}", r.axes);
                 assert!(r.exact_stops.corner <= 1, "{f} {m:?}: {:?}", r.exact_stops);

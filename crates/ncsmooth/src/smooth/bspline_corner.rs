@@ -76,13 +76,16 @@
 //! * **Closed chains** (last point equals first within [`GAP_TOL_MM`], at least three
 //!   moves) get a transition at the closing corner when
 //!   [`BsplineOptions::smooth_closing_corner`] is set (the default). The chain's ends are
-//!   pinned (a rapid or an event happens there and the machine stops anyway), so the loop is
-//!   entered and left through its shoulder point: a lead-in line `Q0 -> M`, the second half
-//!   of the closing transition, the loop, its first half, and a lead-out line `M -> Q0`
-//!   (each of length `e <= tol`, within tol of `Q0`). The loop itself is GC2 all round; the
-//!   two lead joints at `M` are right-angle joints at what is a stop anyway. The paper's own
-//!   3-D example leaves the closing corner alone (five transitions for six corners):
-//!   `smooth_closing_corner = false`.
+//!   pinned (a rapid or an event happens there and the machine is at rest there), so the
+//!   loop is entered and left through its shoulder point `M`: a half circle (two cubic
+//!   quarter circles) from `Q0` to `M` arriving along the transition's direction, the second half of the closing
+//!   transition, the loop, its first half, and the other half circle back to `Q0` (the two
+//!   "hooks" make the circle of diameter `e = |Q0 M| <= tol` through `Q0` and `M`, so they
+//!   stay within `tol` of `Q0`). The loop itself is GC2 all round and the hooks join it
+//!   tangentially (G1, a curvature step the planner allows for), so no exact stop is
+//!   added; a straight lead line would turn by 90 degrees at `M`, a stop in the middle of
+//!   the motion. The paper's own 3-D example leaves the closing corner alone (five
+//!   transitions for six corners): `smooth_closing_corner = false`.
 //! * **3-D**: `a`, `b` span the plane of the two legs; nothing else is needed.
 //!
 //! ## Limits
@@ -99,7 +102,8 @@
 
 use super::{extra_at, Chain, ChainPos, OptionsError, SmoothOptions, SmoothReport};
 use crate::geom::{
-    CubicBez, Line, ParamCurve, ParamCurveArclen, ParamCurveCurvature, Segment, Vec3,
+    CubicBez, Line, ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveDeriv, Segment,
+    Vec3,
 };
 use crate::path::{Block, Move, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
@@ -475,6 +479,35 @@ impl Emitter<'_, '_> {
     }
 }
 
+/// Control-point distance of a cubic Bezier quarter circle of unit radius,
+/// `4 (sqrt 2 - 1) / 3`; its radial error is at most 2.7e-4 of the radius, and zero at the
+/// ends.
+const QUARTER_CIRCLE_K: f64 = 0.552_284_749_830_793_4;
+
+/// The half circle of diameter `|q - m|` joining the corner `q` of a closed chain and the
+/// shoulder `m` of its closing transition, tangent there to the transition's direction
+/// `t_m` (which is perpendicular to `q - m` by the transition's symmetry): from `q` to `m`
+/// when `into`, else from `m` to `q`; as two cubic quarter circles whose end points are
+/// `q` and `m` bit for bit. The two hooks together are the circle through `q` and `m`,
+/// whose points lie within `|q - m|` of `q` (the quarter circles' radial error vanishes
+/// at `m`, where that distance is reached). `None` when degenerate.
+fn hook(q: Vec3, m: Vec3, t_m: Vec3, into: bool) -> Option<[CubicBez; 2]> {
+    let t = t_m.normalized()?;
+    let c = q.lerp(m, 0.5);
+    let r = 0.5 * q.dist(m);
+    let (start, end) = if into { (q, m) } else { (m, q) };
+    let u = (start - c).normalized()?;
+    // Direction of motion at the start: `-t` to arrive at `m` along `t` after half a
+    // turn, `t` to leave `m` along it.
+    let v = if into { -t } else { t };
+    let k = QUARTER_CIRCLE_K * r;
+    let mid = c + v * r;
+    Some([
+        CubicBez::new(start, start + v * k, mid + u * k, mid),
+        CubicBez::new(mid, mid - u * k, end + v * k, end),
+    ])
+}
+
 /// Smooths one chain (see the module documentation); updates the corner counts of `report`.
 pub fn smooth_chain(
     chain: &Chain<'_>,
@@ -575,7 +608,13 @@ pub fn smooth_chain(
                 if let Some(pl) = &closing {
                     report.corners_smoothed += 1;
                     let m = pl.bez[1].p0;
-                    em.line_to(m, ChainPos::start_of(first.idx));
+                    match hook(first.a, m, pl.bez[1].deriv(0.0), true) {
+                        Some([h0, h1]) => {
+                            em.curve(h0, ChainPos::start_of(first.idx));
+                            em.curve(h1, ChainPos::start_of(first.idx));
+                        }
+                        None => em.line_to(m, ChainPos::start_of(first.idx)),
+                    }
                     em.curve(pl.bez[1], pl.pos4);
                 } else {
                     report.corners_stopped += 1;
@@ -598,7 +637,14 @@ pub fn smooth_chain(
             if let Some(pl) = &closing {
                 em.line_to(pl.p0, pl.pos0);
                 em.curve(pl.bez[0], ChainPos::end_of(e.idx));
-                em.line_to(elems[0].a, ChainPos::end_of(e.idx));
+                let m = pl.bez[0].p3;
+                match hook(elems[0].a, m, pl.bez[0].deriv(1.0), false) {
+                    Some([h0, h1]) => {
+                        em.curve(h0, ChainPos::end_of(e.idx));
+                        em.curve(h1, ChainPos::end_of(e.idx));
+                    }
+                    None => em.line_to(elems[0].a, ChainPos::end_of(e.idx)),
+                }
                 break;
             }
         }
@@ -874,14 +920,15 @@ mod tests {
             );
             let involves_transition =
                 matches!(a, Segment::CubicBez(_)) || matches!(b, Segment::CubicBez(_));
-            // Lead-in/out joints of a closed loop are right-angle joints by design.
-            let lead = matches!(a, Segment::Line(l) if l.length() <= tol)
-                && matches!(b, Segment::CubicBez(_))
-                || matches!(b, Segment::Line(l) if l.length() <= tol)
-                    && matches!(a, Segment::CubicBez(_));
+            // The hooks of a closed loop (within tol of its start) join tangentially: G1.
+            let closed = tp.start.dist(tp.end_point()) <= GAP_TOL_MM;
+            let hook = closed && j.at.dist(tp.start) <= tol;
             let at_stop = stops.iter().any(|v| v.dist(j.at) <= 1e-9);
-            if involves_transition && g2 && !lead && !at_stop {
+            if involves_transition && g2 && !hook && !at_stop {
                 prop_assert_eq!(j.class, JointClass::G2, "{:?}", j);
+            }
+            if hook && !at_stop {
+                prop_assert!(j.class != JointClass::G0, "{:?}", j);
             }
             prop_assert!(j.class != JointClass::Gap, "{:?}", j);
         }
