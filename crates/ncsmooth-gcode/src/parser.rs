@@ -858,13 +858,15 @@ impl<'a> Interp<'a> {
                 }
             }
             let mut text = String::from("G92");
+            let mut kind = EventKind::Other;
             if let Some(e) = self.val(b'E') {
                 let e = e * scale;
                 push_word(&mut text, b'E', e);
                 self.extra[6] = e;
                 self.tp.extra_axes_mask |= 1 << 6;
+                kind = EventKind::ExtraReset { to: self.extra };
             }
-            self.event(EventKind::Other, text);
+            self.event(kind, text);
         } else if any_axis {
             self.motion_block(g53, scale)?;
         } else if matches!(self.motion, Motion::G2 | Motion::G3)
@@ -971,8 +973,22 @@ impl<'a> Interp<'a> {
                     push_word(&mut text, b'F', f * 60.0);
                 }
             }
+            // The feed is stored in mm/s, which is the rate of linear extra axes (stored in
+            // mm too); rotary-only moves run at the programmed degrees per minute.
+            let linear = (0..extra.len()).any(|i| extra_is_linear(i) && extra[i] != self.extra[i]);
             self.extra = extra;
-            self.event(EventKind::Other, text);
+            let feed_per_s = match motion {
+                Motion::G1 if linear => self.feed,
+                Motion::G1 => self.feed.map(|f| f / scale),
+                _ => None,
+            };
+            self.event(
+                EventKind::ExtraMove {
+                    to: extra,
+                    feed_per_s,
+                },
+                text,
+            );
             return Ok(());
         }
         let start = self.pos;

@@ -335,6 +335,32 @@ fn slicer_codes_and_extra_axes() {
             "G28 X0"
         ]
     );
+    // E-only moves and `G92 E` carry the extruder values they leave (absolute, mm) and
+    // the rate (mm/s) for the planner and for smoothing.
+    let kinds: Vec<&EventKind> = p.toolpath.events().map(|e| &e.kind).collect();
+    let e = |v: f64| [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, v];
+    assert_eq!(kinds[2], &EventKind::ExtraReset { to: e(0.0) });
+    assert_eq!(
+        kinds[4],
+        &EventKind::ExtraMove {
+            to: e(-4.0),
+            feed_per_s: Some(60.0)
+        }
+    );
+    assert_eq!(
+        kinds[5],
+        &EventKind::ExtraMove {
+            to: e(0.5),
+            feed_per_s: Some(20.0)
+        }
+    );
+    assert_eq!(
+        kinds[7],
+        &EventKind::ExtraMove {
+            to: e(-0.5),
+            feed_per_s: Some(20.0)
+        }
+    );
     let m: Vec<_> = p.toolpath.moves().collect();
     assert_eq!(m.len(), 2);
     assert_eq!(m[0].extra.unwrap()[6], 1.0);

@@ -98,6 +98,21 @@ pub enum EventKind {
     ToolOffset,
     /// Program stop or end (M0 M1 M2 M30 M60).
     ProgramStop,
+    /// A move of extra axes only (X, Y, Z at rest; a slicer's retract `G1 E-2 F2400`):
+    /// their programmed values after it, and its rate in units per second (`None` for a
+    /// rapid or when no F was programmed).
+    ExtraMove {
+        /// Extra-axis values after the move.
+        to: ExtraAxes,
+        /// Rate (programmed units per second).
+        feed_per_s: Option<f64>,
+    },
+    /// The extra axes' coordinates are redefined (`G92 E0`): their programmed values after
+    /// it. No motion.
+    ExtraReset {
+        /// Extra-axis values after the reset.
+        to: ExtraAxes,
+    },
     /// Anything else kept verbatim (other M codes, G92, G28, G54..G59, modal settings
     /// that do not change the geometry, extra-axis-only moves, ...).
     Other,

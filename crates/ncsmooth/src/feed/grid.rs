@@ -40,9 +40,17 @@
 //! between interval ends; that resolved the flat ends of every B-spline or trigonometric
 //! transition to a few nanometres (400 grid points per corner on butterfly_1000) without
 //! bounding curvature bumps inside an interval.
-//! Zero-length moves (below [`crate::verify::DEGENERATE_MM`]) are dropped: their extra-axis
-//! change, if any, happens at once at their position (a known limitation: extra axes
-//! ride along and are not planned).
+//! Zero-length moves (below [`crate::verify::DEGENERATE_MM`]) are dropped.
+//!
+//! ## Extra axes
+//! Extra axes ride along with the moves, linear in arc length, in *machine* coordinates:
+//! a `G92 E0` ([`EventKind::ExtraReset`]) changes the offset between programmed and machine
+//! values, not the position, so the setpoints' extra columns stay continuous. A move of
+//! extra axes only ([`EventKind::ExtraMove`], a slicer's retract; also a zero-length move
+//! that changes them) happens at a stop, X, Y and Z at rest: it takes the time of a
+//! trapezoid over the largest axis change at its rate (the rapid rate when it has none)
+//! and the smallest X/Y/Z acceleration limit ([`ExtraRest`]). Extra axes have no limits
+//! of their own; the report gives their measured speeds and accelerations.
 
 use super::limits::{
     g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, Caps, Interval, NEGLIGIBLE,
@@ -120,6 +128,101 @@ pub struct PlanMove<'a> {
     pub after: After,
 }
 
+/// One motion of the extra axes at a stop (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExtraMotion {
+    /// Start, seconds into the stop.
+    pub t0: f64,
+    /// Duration (s).
+    pub duration: f64,
+    /// Machine values before and after.
+    pub from: ExtraAxes,
+    /// Machine values after.
+    pub to: ExtraAxes,
+    /// Rate of the axis that moves most (units/s).
+    pub v: f64,
+    /// Acceleration of that axis (units/s^2).
+    pub a: f64,
+}
+
+impl ExtraMotion {
+    /// A trapezoid from `from` to `to` at rate `v` and acceleration `a`, starting `t0`
+    /// seconds into the stop.
+    fn new(t0: f64, from: ExtraAxes, to: ExtraAxes, v: f64, a: f64) -> ExtraMotion {
+        let d = (0..from.len())
+            .map(|i| (to[i] - from[i]).abs())
+            .fold(0.0, f64::max);
+        let duration = if d <= 0.0 || !(v > 0.0 && a > 0.0) {
+            0.0
+        } else if d >= v * v / a {
+            d / v + v / a
+        } else {
+            2.0 * (d / a).sqrt()
+        };
+        ExtraMotion {
+            t0,
+            duration,
+            from,
+            to,
+            v,
+            a,
+        }
+    }
+
+    /// Share of the motion done `tau` seconds after its start.
+    fn share(&self, tau: f64) -> f64 {
+        if self.duration <= 0.0 || tau >= self.duration {
+            return 1.0;
+        }
+        if tau <= 0.0 {
+            return 0.0;
+        }
+        let d = (0..self.from.len())
+            .map(|i| (self.to[i] - self.from[i]).abs())
+            .fold(0.0, f64::max);
+        // Cruise speed actually reached, and the distance covered by `tau`.
+        let vp = self.v.min((d * self.a).sqrt());
+        let ta = vp / self.a;
+        let covered = if tau < ta {
+            0.5 * self.a * tau * tau
+        } else if tau <= self.duration - ta {
+            0.5 * vp * ta + vp * (tau - ta)
+        } else {
+            let r = self.duration - tau;
+            d - 0.5 * self.a * r * r
+        };
+        (covered / d).clamp(0.0, 1.0)
+    }
+}
+
+/// Extra-axis motions while X, Y and Z rest at the stop at arc length `s`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtraRest {
+    /// Arc length of the stop (mm).
+    pub s: f64,
+    /// Values when the stop begins (machine coordinates).
+    pub start: ExtraAxes,
+    /// The motions, in order.
+    pub motions: Vec<ExtraMotion>,
+}
+
+impl ExtraRest {
+    /// Machine values `tau` seconds into the stop.
+    pub fn at(&self, tau: f64) -> ExtraAxes {
+        let mut v = self.start;
+        for m in &self.motions {
+            if tau < m.t0 {
+                break;
+            }
+            let f = m.share(tau - m.t0);
+            for i in 0..v.len() {
+                v[i] = m.from[i] + (m.to[i] - m.from[i]) * f;
+            }
+        }
+        v
+    }
+}
+
 /// The program's moves in arc length, with the joints classified.
 #[derive(Clone, Debug)]
 pub struct PathIndex<'a> {
@@ -133,6 +236,8 @@ pub struct PathIndex<'a> {
     pub total_len: f64,
     /// Bit mask of the extra axes present ([`crate::path::EXTRA_AXIS_NAMES`]).
     pub extra_axes_mask: u8,
+    /// Extra-axis motions at stops, in order of `s`.
+    pub rests: Vec<ExtraRest>,
 }
 
 fn move_len(seg: &Segment) -> f64 {
@@ -204,33 +309,88 @@ impl<'a> PathIndex<'a> {
         let mut pending: Option<(StopReason, f64)> = None;
         let mut lead = None;
         let mut s = 0.0;
-        let mut last_extra: Option<ExtraAxes> = None;
+        // Extra axes: programmed values and the machine offset (`G92 E`).
+        let mut prog: Option<ExtraAxes> = None;
+        let mut offset: ExtraAxes = [0.0; 7];
+        let machine =
+            |v: ExtraAxes, off: &ExtraAxes| -> ExtraAxes { std::array::from_fn(|i| v[i] + off[i]) };
+        let extra_acc = opts.acc_mm_s2.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut rests: Vec<ExtraRest> = Vec::new();
+        let mut rest: Option<ExtraRest> = None;
+        let add_stop = |pending: &mut Option<(StopReason, f64)>, r: StopReason, d: f64| {
+            *pending = Some(match *pending {
+                Some((pr, pd)) => (
+                    if pr == StopReason::Dwell || r == StopReason::Dwell {
+                        StopReason::Dwell
+                    } else {
+                        StopReason::Event
+                    },
+                    pd + d,
+                ),
+                None => (r, d),
+            });
+        };
+        // Appends an extra-axis motion to the stop being collected.
+        let extra_motion = |pending: &mut Option<(StopReason, f64)>,
+                            rest: &mut Option<ExtraRest>,
+                            s: f64,
+                            from: ExtraAxes,
+                            to: ExtraAxes,
+                            rate: f64| {
+            let t0 = pending.map_or(0.0, |p| p.1);
+            let m = ExtraMotion::new(t0, from, to, rate, extra_acc);
+            rest.get_or_insert_with(|| ExtraRest {
+                s,
+                start: from,
+                motions: Vec::new(),
+            })
+            .motions
+            .push(m);
+            add_stop(pending, StopReason::Event, m.duration);
+        };
         for b in &path.blocks {
             match b {
-                Block::Event(e) => {
-                    let (r, d) = match e.kind {
-                        EventKind::Dwell(t) if t.is_finite() && t > 0.0 => (StopReason::Dwell, t),
-                        EventKind::Dwell(_) => (StopReason::Dwell, 0.0),
-                        _ => (StopReason::Event, 0.0),
-                    };
-                    pending = Some(match pending {
-                        Some((pr, pd)) => (
-                            if pr == StopReason::Dwell || r == StopReason::Dwell {
-                                StopReason::Dwell
-                            } else {
-                                StopReason::Event
-                            },
-                            pd + d,
-                        ),
-                        None => (r, d),
-                    });
-                }
+                Block::Event(e) => match e.kind {
+                    EventKind::Dwell(t) => {
+                        let t = if t.is_finite() && t > 0.0 { t } else { 0.0 };
+                        add_stop(&mut pending, StopReason::Dwell, t);
+                    }
+                    EventKind::ExtraReset { to } => {
+                        if let Some(p) = prog {
+                            let m = machine(p, &offset);
+                            offset = std::array::from_fn(|i| m[i] - to[i]);
+                        }
+                        prog = Some(to);
+                        add_stop(&mut pending, StopReason::Event, 0.0);
+                    }
+                    EventKind::ExtraMove { to, feed_per_s } => {
+                        let from = machine(prog.unwrap_or(to), &offset);
+                        let rate = feed_per_s
+                            .filter(|f| *f > 0.0 && f.is_finite())
+                            .unwrap_or_else(|| opts.rapid());
+                        prog = Some(to);
+                        extra_motion(&mut pending, &mut rest, s, from, machine(to, &offset), rate);
+                    }
+                    _ => add_stop(&mut pending, StopReason::Event, 0.0),
+                },
                 Block::Move(m) => {
-                    let extra_end = m.extra;
-                    let extra_start = last_extra.or(extra_end);
-                    last_extra = extra_end.or(last_extra);
+                    let extra_start = prog.or(m.extra).map(|v| machine(v, &offset));
+                    let extra_end = m.extra.map(|v| machine(v, &offset));
+                    prog = m.extra.or(prog);
                     let len = move_len(&m.segment);
                     if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
+                        // A zero-length move that changes the extra axes moves them alone.
+                        if let (Some(a), Some(b)) = (extra_start, extra_end) {
+                            if a != b {
+                                let rate = match m.kind {
+                                    MoveKind::Rapid => None,
+                                    MoveKind::Feed => m.feed_mm_s,
+                                }
+                                .filter(|f| *f > 0.0 && f.is_finite())
+                                .unwrap_or_else(|| opts.rapid());
+                                extra_motion(&mut pending, &mut rest, s, a, b, rate);
+                            }
+                        }
                         continue;
                     }
                     let vcap = match m.kind {
@@ -248,6 +408,7 @@ impl<'a> PathIndex<'a> {
                     } else if let Some(p) = pending.take() {
                         lead = Some(p);
                     }
+                    rests.extend(rest.take());
                     moves.push(PlanMove {
                         segment: &m.segment,
                         kind: m.kind,
@@ -275,12 +436,14 @@ impl<'a> PathIndex<'a> {
                 None => lead = pending,
             }
         }
+        rests.extend(rest.take());
         PathIndex {
             moves,
             start: path.start,
             lead,
             total_len: s,
             extra_axes_mask: path.extra_axes_mask,
+            rests,
         }
     }
     /// End point of the program.

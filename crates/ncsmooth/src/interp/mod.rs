@@ -58,8 +58,8 @@
 mod run;
 mod setpoints;
 
-pub use run::{execute, AxisReport, PlanError, PlanReport, StageTimes};
-pub use setpoints::{FdMeter, FdStats, Setpoint, SetpointWriter};
+pub use run::{execute, AxisReport, ExtraAxisReport, PlanError, PlanReport, StageTimes};
+pub use setpoints::{ExtraFdMeter, FdMeter, FdStats, Setpoint, SetpointWriter};
 
 use crate::feed::PathIndex;
 use crate::geom::{

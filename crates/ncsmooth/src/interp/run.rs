@@ -15,12 +15,13 @@
 
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
 use super::{InterpOptions, InterpStats, Interpolator};
+use crate::feed::grid::ExtraRest;
 use crate::feed::{
     plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
     StopReason,
 };
-use crate::geom::ParamCurve;
-use crate::path::Toolpath;
+use crate::geom::{ParamCurve, Vec3};
+use crate::path::{ExtraAxes, Toolpath, EXTRA_AXIS_NAMES};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::time::Instant;
@@ -149,6 +150,17 @@ pub enum PlanError {
     Io(io::Error),
 }
 
+/// Measured maxima of one extra axis.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ExtraAxisReport {
+    /// Axis name.
+    pub axis: char,
+    /// Largest finite-difference velocity (units/s).
+    pub v_max_per_s: f64,
+    /// Largest finite-difference acceleration (units/s^2).
+    pub a_max_per_s2: f64,
+}
+
 /// Measured maxima of one axis against its limits.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct AxisReport {
@@ -217,6 +229,9 @@ pub struct PlanReport {
     pub interp: InterpStats,
     /// Per-axis finite-difference maxima on the printed setpoints, against the limits.
     pub axes: Vec<AxisReport>,
+    /// Extra axes of the program (their CSV columns, machine coordinates): measured
+    /// finite-difference maxima. They have no limits of their own (see [`crate::feed::grid`]).
+    pub extra_axes: Vec<ExtraAxisReport>,
     /// Finite-difference noise bound of the printed positions (0.5e-9 mm rounding):
     /// acceleration `2e-9 / T^2` (mm/s^2).
     pub fd_acc_noise_mm_s2: f64,
@@ -242,38 +257,83 @@ pub struct PlanReport {
 /// taken).
 const EMIT_BATCH: usize = 512;
 
-/// Interpolates a batch of planned samples `(t, s, v)` and writes them (the first write
-/// error is kept and later writes skipped), adding the time of each stage to `times`
-/// (interpolation, writing).
-fn emit_batch<W: Write>(
-    batch: &[(f64, f64, f64)],
-    points: &mut Vec<(crate::geom::Vec3, Option<crate::path::ExtraAxes>)>,
-    interp: &mut Interpolator<'_, '_>,
-    writer: &mut SetpointWriter<W>,
-    err: &mut Option<io::Error>,
-    times: (&mut f64, &mut f64),
-) {
-    if batch.is_empty() {
-        return;
-    }
-    let c0 = Instant::now();
-    points.clear();
-    points.extend(batch.iter().map(|&(_, s, _)| interp.advance(s)));
-    let c1 = Instant::now();
-    for (&(time, _, v), &(p, extra)) in batch.iter().zip(points.iter()) {
-        if err.is_none() {
-            if let Err(e) = writer.push(&Setpoint {
-                t: time,
-                p,
-                feed: v,
-                extra,
-            }) {
-                *err = Some(e);
-            }
+/// Turns planned samples `(t, s, v)` into written setpoints: collected in batches,
+/// interpolated, given the extra-axis motion of the stop they rest at (if any), written;
+/// the first write error is kept and later writes skipped. Times each stage.
+struct Emitter<'i, 'p, 'a, W: Write> {
+    interp: Interpolator<'p, 'a>,
+    writer: SetpointWriter<W>,
+    rests: &'i [ExtraRest],
+    /// Next rest to look at.
+    next_rest: usize,
+    /// The stop whose extra-axis motions apply: when they begin (s) and the rest.
+    rest: Option<(f64, &'i ExtraRest)>,
+    batch: Vec<(f64, f64, f64)>,
+    points: Vec<(Vec3, Option<ExtraAxes>)>,
+    err: Option<io::Error>,
+    interp_s: f64,
+    write_s: f64,
+}
+
+impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
+    /// Queues a sample; interpolates and writes when the batch is full.
+    fn push(&mut self, time: f64, s: f64, v: f64) {
+        self.batch.push((time, s, v));
+        if self.batch.len() >= EMIT_BATCH {
+            self.flush();
         }
     }
-    *times.0 += (c1 - c0).as_secs_f64();
-    *times.1 += c1.elapsed().as_secs_f64();
+
+    /// The machine comes to rest at `s`: extra-axis motions there (if any) start at
+    /// `begin`. Samples queued before belong to the motion before and are written first.
+    fn rest_at(&mut self, s: f64, begin: f64) {
+        self.flush();
+        while self.next_rest < self.rests.len() && self.rests[self.next_rest].s < s {
+            self.next_rest += 1;
+        }
+        self.rest = match self.rests.get(self.next_rest) {
+            Some(r) if r.s == s => {
+                self.next_rest += 1;
+                Some((begin, r))
+            }
+            _ => None,
+        };
+    }
+
+    /// Interpolates and writes the queued samples.
+    fn flush(&mut self) {
+        if self.batch.is_empty() {
+            return;
+        }
+        let c0 = Instant::now();
+        self.points.clear();
+        for &(time, s, _) in &self.batch {
+            let (p, mut extra) = self.interp.advance(s);
+            if let Some((begin, r)) = self.rest {
+                // At rest on the stop's point, after its extra-axis motions began.
+                if s == r.s && time >= begin {
+                    extra = Some(r.at(time - begin));
+                }
+            }
+            self.points.push((p, extra));
+        }
+        let c1 = Instant::now();
+        for (&(time, _, v), &(p, extra)) in self.batch.iter().zip(self.points.iter()) {
+            if self.err.is_none() {
+                if let Err(e) = self.writer.push(&Setpoint {
+                    t: time,
+                    p,
+                    feed: v,
+                    extra,
+                }) {
+                    self.err = Some(e);
+                }
+            }
+        }
+        self.batch.clear();
+        self.interp_s += (c1 - c0).as_secs_f64();
+        self.write_s += c1.elapsed().as_secs_f64();
+    }
 }
 
 /// Plans `path` under `popts`, interpolates it with `iopts` and writes the setpoints to
@@ -289,13 +349,19 @@ pub fn execute<W: Write>(
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
     let period = popts.period_s;
-    let mut interp = Interpolator::new(&index, *iopts);
-    let mut writer = SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?;
-    let mut err: Option<io::Error> = None;
+    let mut em = Emitter {
+        interp: Interpolator::new(&index, *iopts),
+        writer: SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?,
+        rests: &index.rests,
+        next_rest: 0,
+        rest: None,
+        batch: Vec::with_capacity(EMIT_BATCH),
+        points: Vec::with_capacity(EMIT_BATCH),
+        err: None,
+        interp_s: 0.0,
+        write_s: 0.0,
+    };
     let (mut t, mut n) = (0.0f64, 0u64);
-    let (mut interp_s, mut write_s) = (0.0, 0.0);
-    let mut batch: Vec<(f64, f64, f64)> = Vec::new();
-    let mut points: Vec<(crate::geom::Vec3, Option<crate::path::ExtraAxes>)> = Vec::new();
     let hold = popts.stop_hold_s();
     let mut filter = popts.jerk_caps().map(|j| MovingAverage::new(j.window_s));
     let planning = plan_stream(&index, popts, |ev| match ev {
@@ -316,12 +382,14 @@ pub fn execute<W: Write>(
                 }
                 PlanEvent::Stop { s, reason, dwell_s } => {
                     // Rest for the filter window more than the trapezoid would, so the
-                    // filtered motion comes to rest at the stop (see feed::jerk).
+                    // filtered motion comes to rest at the stop (see feed::jerk); the
+                    // filtered X, Y, Z are at rest from one window after the plan.
                     let rest_end = t + dwell_s + hold;
                     let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
                     if reason == StopReason::End {
                         k = k.max(n);
                     }
+                    em.rest_at(s, t + hold);
                     f.push(Stretch {
                         t0: t,
                         t1: k as f64 * period,
@@ -337,54 +405,22 @@ pub fn execute<W: Write>(
             while (n as f64) * period <= f.t_known || last.is_some_and(|k| n <= k) {
                 let time = n as f64 * period;
                 let (s, v) = f.sample(time);
-                batch.push((time, s, v));
+                em.push(time, s, v);
                 n += 1;
-            }
-            if batch.len() >= EMIT_BATCH || last.is_some() {
-                emit_batch(
-                    &batch,
-                    &mut points,
-                    &mut interp,
-                    &mut writer,
-                    &mut err,
-                    (&mut interp_s, &mut write_s),
-                );
-                batch.clear();
             }
         }
         PlanEvent::Piece(pc) => {
-            // Samples of this piece; interpolated and written in timed batches of several
-            // pieces.
+            // Samples of this piece (interpolated and written in batches).
             while (n as f64) * period < t + pc.dt {
                 let time = n as f64 * period;
                 let (s, v) = pc.at(time - t);
-                batch.push((time, s, v));
+                em.push(time, s, v);
                 n += 1;
             }
             t += pc.dt;
-            if batch.len() >= EMIT_BATCH {
-                emit_batch(
-                    &batch,
-                    &mut points,
-                    &mut interp,
-                    &mut writer,
-                    &mut err,
-                    (&mut interp_s, &mut write_s),
-                );
-                batch.clear();
-            }
         }
         PlanEvent::Stop { s, reason, dwell_s } => {
-            // The motion before the stop first.
-            emit_batch(
-                &batch,
-                &mut points,
-                &mut interp,
-                &mut writer,
-                &mut err,
-                (&mut interp_s, &mut write_s),
-            );
-            batch.clear();
+            em.rest_at(s, t);
             let rest_end = t + dwell_s;
             let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
             if reason == StopReason::End {
@@ -392,39 +428,33 @@ pub fn execute<W: Write>(
             }
             let last = if reason == StopReason::End { k + 1 } else { k };
             while n < last {
-                let c0 = Instant::now();
-                let (p, extra) = interp.advance(s);
-                let c1 = Instant::now();
-                if err.is_none() {
-                    if let Err(e) = writer.push(&Setpoint {
-                        t: n as f64 * period,
-                        p,
-                        feed: 0.0,
-                        extra,
-                    }) {
-                        err = Some(e);
-                    }
-                }
-                interp_s += (c1 - c0).as_secs_f64();
-                write_s += c1.elapsed().as_secs_f64();
+                em.push(n as f64 * period, s, 0.0);
                 n += 1;
             }
             t = k as f64 * period;
         }
     });
-    // Every program ends with a stop, which flushes the batch; this is for safety only.
-    emit_batch(
-        &batch,
-        &mut points,
-        &mut interp,
-        &mut writer,
-        &mut err,
-        (&mut interp_s, &mut write_s),
-    );
+    em.flush();
+    let Emitter {
+        interp,
+        writer,
+        err,
+        interp_s,
+        write_s,
+        ..
+    } = em;
     if let Some(e) = err {
         return Err(PlanError::Io(e));
     }
     let fd: FdStats = writer.fd.stats;
+    let extra_axes: Vec<ExtraAxisReport> = (0..EXTRA_AXIS_NAMES.len())
+        .filter(|i| index.extra_axes_mask & (1 << i) != 0)
+        .map(|i| ExtraAxisReport {
+            axis: EXTRA_AXIS_NAMES[i].to_ascii_lowercase(),
+            v_max_per_s: writer.extra_fd.v_max[i],
+            a_max_per_s2: writer.extra_fd.a_max[i],
+        })
+        .collect();
     let rows = writer.rows;
     let last = writer.last;
     let first = writer.first;
@@ -474,6 +504,7 @@ pub fn execute<W: Write>(
         path_length_mm: index.total_len,
         moves: index.moves.len(),
         interp: interp.stats.clone(),
+        extra_axes,
         limits_held: axes.iter().all(|a| a.v_within && a.a_within && a.j_within),
         axes,
         fd_acc_noise_mm_s2: acc_noise,

@@ -101,6 +101,45 @@ impl FdMeter {
     }
 }
 
+/// Largest finite-difference speed and acceleration of the extra-axis columns, measured
+/// on the printed values like [`FdMeter`] (no limits apply to them).
+#[derive(Clone, Debug, Default)]
+pub struct ExtraFdMeter {
+    hist: Vec<(f64, ExtraAxes)>,
+    /// Largest |velocity| per column, in [`EXTRA_AXIS_NAMES`] order (units/s).
+    pub v_max: ExtraAxes,
+    /// Largest |acceleration| per column (units/s^2).
+    pub a_max: ExtraAxes,
+}
+
+impl ExtraFdMeter {
+    /// Feeds one row.
+    pub fn push(&mut self, t: f64, x: ExtraAxes) {
+        if self.hist.len() == 3 {
+            self.hist.remove(0);
+        }
+        self.hist.push((t, x));
+        let n = self.hist.len();
+        let vel =
+            |a: (f64, ExtraAxes), b: (f64, ExtraAxes), i: usize| (b.1[i] - a.1[i]) / (b.0 - a.0);
+        if n >= 2 && self.hist[n - 1].0 > self.hist[n - 2].0 {
+            for i in 0..x.len() {
+                let v = vel(self.hist[n - 2], self.hist[n - 1], i).abs();
+                self.v_max[i] = self.v_max[i].max(v);
+            }
+        }
+        if n == 3 && self.hist[1].0 > self.hist[0].0 && self.hist[2].0 > self.hist[1].0 {
+            let span = self.hist[2].0 - self.hist[0].0;
+            for i in 0..x.len() {
+                let a = 2.0
+                    * (vel(self.hist[1], self.hist[2], i) - vel(self.hist[0], self.hist[1], i))
+                    / span;
+                self.a_max[i] = self.a_max[i].max(a.abs());
+            }
+        }
+    }
+}
+
 /// Writes setpoint rows as CSV and measures them.
 pub struct SetpointWriter<W: Write> {
     out: W,
@@ -108,6 +147,8 @@ pub struct SetpointWriter<W: Write> {
     line: Vec<u8>,
     /// Finite differences of the printed rows.
     pub fd: FdMeter,
+    /// Finite differences of the printed extra-axis columns.
+    pub extra_fd: ExtraFdMeter,
     /// Rows written.
     pub rows: usize,
     /// Last row as printed: time and position.
@@ -228,6 +269,7 @@ impl<W: Write> SetpointWriter<W> {
             extra_cols,
             line: Vec::with_capacity(128),
             fd: FdMeter::default(),
+            extra_fd: ExtraFdMeter::default(),
             rows: 0,
             last: None,
             first: None,
@@ -244,9 +286,13 @@ impl<W: Write> SetpointWriter<W> {
         }
         self.line.push(b',');
         put(&mut self.line, sp.feed, 6);
+        let mut e = [0.0; 7];
         for &i in &self.extra_cols {
             self.line.push(b',');
-            put(&mut self.line, sp.extra.map_or(0.0, |e| e[i]), 9);
+            e[i] = put(&mut self.line, sp.extra.map_or(0.0, |e| e[i]), 9);
+        }
+        if !self.extra_cols.is_empty() {
+            self.extra_fd.push(sp.t, e);
         }
         self.line.push(b'\n');
         self.out.write_all(&self.line)?;

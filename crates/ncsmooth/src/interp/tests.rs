@@ -432,3 +432,96 @@ fn jerk_micro_segments_do_not_oscillate() {
         );
     }
 }
+
+/// A slicer's extruder: `G92 E0` resets are offsets (the `e` column, in machine
+/// coordinates, stays continuous), E-only moves take their time with X, Y, Z at rest,
+/// and the report measures the column, in trapezoid and jerk mode.
+#[test]
+fn extruder_moves_and_resets() {
+    // G92 E0 / G1 X10 Y0 E5 F1200 / G1 E3 F1800 / G92 E0 / G1 E2 / G1 X10 Y10 E3 F1200
+    use crate::path::{Event, EventKind};
+    let e = |v: f64| [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, v];
+    let mut tp = Toolpath::new(Vec3::ZERO);
+    tp.extra_axes_mask = 1 << 6;
+    let event = |line, kind, text: &str| Event {
+        line,
+        kind,
+        text: text.into(),
+    };
+    tp.push_event(event(1, EventKind::ExtraReset { to: e(0.0) }, "G92 E0"));
+    let mut m = Move::feed(
+        Line::new(Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)),
+        Some(20.0),
+        2,
+    );
+    m.extra = Some(e(5.0));
+    tp.push_move(m);
+    let retract = EventKind::ExtraMove {
+        to: e(3.0),
+        feed_per_s: Some(30.0),
+    };
+    tp.push_event(event(3, retract, "G1 E3 F1800"));
+    tp.push_event(event(4, EventKind::ExtraReset { to: e(0.0) }, "G92 E0"));
+    let unretract = EventKind::ExtraMove {
+        to: e(2.0),
+        feed_per_s: Some(30.0),
+    };
+    tp.push_event(event(5, unretract, "G1 E2"));
+    let mut m = Move::feed(
+        Line::new(Vec3::new(10.0, 0.0, 0.0), Vec3::new(10.0, 10.0, 0.0)),
+        Some(20.0),
+        6,
+    );
+    m.extra = Some(e(3.0));
+    tp.push_move(m);
+    for jerk in [None, Some([5000.0; 3])] {
+        let p = PlanOptions {
+            jerk_mm_s3: jerk,
+            ..Default::default()
+        };
+        let (rep, out) = execute(&tp, &p, &InterpOptions::default(), Vec::new()).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("t,x,y,z,feed,e"));
+        let r: Vec<[f64; 6]> = lines
+            .map(|l| {
+                let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+                [v[0], v[1], v[2], v[3], v[4], v[5]]
+            })
+            .collect();
+        // Machine E: 5 after the first line, 3 after the retract, the reset to 0 moves
+        // nothing, the unretract to (programmed) 2 is machine 5, the last line ends at 6.
+        let last = r.last().unwrap();
+        assert!((last[5] - 6.0).abs() < 1e-9, "{last:?}");
+        // Continuous: no step larger than the fastest rate (30 mm/s) allows.
+        for w in r.windows(2) {
+            assert!(
+                (w[1][5] - w[0][5]).abs() <= 30.0 * p.period_s + 1e-9,
+                "{w:?}"
+            );
+        }
+        // The retract and unretract happen at rest at (10, 0): E goes 5 -> 3 -> 5 there.
+        let at_corner: Vec<&[f64; 6]> = r
+            .iter()
+            .filter(|row| row[1] == 10.0 && row[2] == 0.0)
+            .collect();
+        let e_min = at_corner
+            .iter()
+            .map(|row| row[5])
+            .fold(f64::INFINITY, f64::min);
+        // (The turn-around at 3 falls between two rows: within a T^2 / 2 of it.)
+        assert!((e_min - 3.0).abs() <= 500.0 * p.period_s.powi(2), "{e_min}");
+        // Each takes a trapezoid over 2 mm at 30 mm/s and the smallest axis acceleration:
+        // 2/30 + 30/500 s.
+        let moving = at_corner.windows(2).filter(|w| w[0][5] != w[1][5]).count();
+        let expect = 2.0 * (2.0 / 30.0 + 30.0 / 500.0) / p.period_s;
+        assert!(
+            (moving as f64 - expect).abs() <= 4.0,
+            "{moving} vs {expect}"
+        );
+        assert_eq!(rep.extra_axes.len(), 1);
+        let e = &rep.extra_axes[0];
+        assert_eq!(e.axis, 'e');
+        assert!((e.v_max_per_s - 30.0).abs() < 0.1, "{e:?}");
+    }
+}

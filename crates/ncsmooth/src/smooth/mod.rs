@@ -34,7 +34,7 @@ pub mod screen;
 pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
-use crate::path::{Block, ExtraAxes, Move, MoveKind, Toolpath};
+use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 use crate::verify::TANGENT_TOL_DEG;
 use serde::Serialize;
 
@@ -385,8 +385,15 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
             }
             other => {
                 flush(&mut run, run_start_extra, &mut out, &mut report);
-                if let Block::Move(m) = other {
-                    last_extra = m.extra.or(last_extra);
+                match other {
+                    Block::Move(m) => last_extra = m.extra.or(last_extra),
+                    Block::Event(e) => {
+                        if let EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } =
+                            e.kind
+                        {
+                            last_extra = Some(to);
+                        }
+                    }
                 }
                 out.blocks.push(other.clone());
             }
@@ -420,6 +427,84 @@ mod tests {
     use super::*;
     use crate::geom::Line;
     use crate::path::{Event, EventKind};
+
+    /// After `G92 E0` and E-only moves (events), every method continues the extruder
+    /// from the value those events left, never from the last move's (audit repro: E ran
+    /// backwards after a reset).
+    #[test]
+    fn extra_axes_continue_from_events() {
+        let e = |v: f64| [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, v];
+        let event = |line, kind, text: &str| {
+            Block::Event(Event {
+                line,
+                kind,
+                text: text.into(),
+            })
+        };
+        let feed = |a: Vec3, b: Vec3, ev: f64, line| {
+            let mut m = Move::feed(Line::new(a, b), Some(10.0), line);
+            m.extra = Some(e(ev));
+            Block::Move(m)
+        };
+        let (p0, p1, p2, p3) = (
+            Vec3::ZERO,
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 10.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0),
+        );
+        let mut tp = Toolpath::new(p0);
+        tp.extra_axes_mask = 1 << 6;
+        tp.blocks = vec![
+            event(1, EventKind::ExtraReset { to: e(0.0) }, "G92 E0"),
+            feed(p0, p1, 5.0, 2),
+            event(3, EventKind::ExtraReset { to: e(0.0) }, "G92 E0"),
+            feed(p1, p2, 1.0, 4),
+            feed(p2, p3, 2.0, 5),
+            event(
+                6,
+                EventKind::ExtraMove {
+                    to: e(1.5),
+                    feed_per_s: Some(30.0),
+                },
+                "G1 E1.5",
+            ),
+            feed(p3, p0, 2.5, 7),
+        ];
+        for method in [Method::Bspline, Method::Arc, Method::Nurbs, Method::Trig] {
+            let o = SmoothOptions {
+                method,
+                tol_mm: 0.05,
+                ..Default::default()
+            };
+            let s = smooth(&tp, &o).unwrap();
+            let mut prev: Option<f64> = None;
+            for b in &s.toolpath.blocks {
+                match b {
+                    Block::Move(m) => {
+                        let v = m.extra.unwrap()[6];
+                        if let Some(p) = prev {
+                            assert!(v >= p - 1e-12, "{method:?}: E {p} -> {v}");
+                        }
+                        prev = Some(v);
+                    }
+                    Block::Event(ev) => match ev.kind {
+                        EventKind::ExtraReset { .. } => prev = None,
+                        EventKind::ExtraMove { to, .. } => prev = Some(to[6]),
+                        _ => {}
+                    },
+                }
+            }
+            // The corner at (10, 10) is smoothed: E there is between 1 and 2 on both sides.
+            let second: Vec<f64> = s
+                .toolpath
+                .moves()
+                .filter(|m| m.line == 4 || m.line == 5)
+                .map(|m| m.extra.unwrap()[6])
+                .collect();
+            assert!(second.iter().all(|v| (0.0..=2.0).contains(v)), "{second:?}");
+            assert_eq!(s.toolpath.moves().last().unwrap().extra.unwrap()[6], 2.5);
+        }
+    }
 
     #[test]
     fn none_keeps_everything_and_extra_axes_interpolate() {
