@@ -99,6 +99,10 @@ pub struct PlanArgs {
     /// Newton stopping rule (eq. 20).
     #[arg(long, value_enum, default_value = "both")]
     pub newton_stop: NewtonStop,
+    /// Write each interpolation method's own setpoints instead of correcting every curve
+    /// step onto the planned arc length (to compare --interp methods by their output).
+    #[arg(long)]
+    pub no_arc_correction: bool,
     /// Setpoints CSV (t s, x y z mm, feed mm/s, extra axes) [default: measured, not written].
     #[arg(long)]
     pub setpoints: Option<PathBuf>,
@@ -226,6 +230,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         eta_tol: a.eta_tol,
         max_iters: a.newton_iters,
         stop_on_either: a.newton_stop == NewtonStop::Either,
+        arc_correction: !a.no_arc_correction,
     };
     let t1 = Instant::now();
     let sopts = SmoothOptions {

@@ -99,6 +99,24 @@ fn butterfly_nurbs_wu_setting() {
     let (rep1, r1) = run(&tp, &p, &t1);
     check_invariants(&tp, &rep1, &r1);
     assert!(rep1.interp.eta_max > rep.interp.eta_max);
+    // Without the arc-length correction the setpoints are each method's own: Taylor 1's
+    // fluctuation shows in the output and its finite differences, Newton's does not.
+    let own = |method| InterpOptions {
+        method,
+        arc_correction: false,
+        ..Default::default()
+    };
+    let (rn, rows_n) = run(&tp, &p, &own(InterpMethod::Newton));
+    let (rt, rows_t) = run(&tp, &p, &own(InterpMethod::Taylor1));
+    check_invariants(&tp, &rn, &rows_n);
+    check_invariants(&tp, &rt, &rows_t);
+    assert_eq!(rn.interp.arc_corrections, 0);
+    let worst = |r: &PlanReport| r.axes.iter().map(|a| a.a_ratio).fold(0.0, f64::max);
+    assert!(worst(&rn) <= 1.0, "{:?}", rn.axes);
+    assert!(worst(&rt) > 1.03, "{:?}", rt.axes);
+    assert!(rt.interp.feed_fluctuation_max > 10.0 * rn.interp.feed_fluctuation_max);
+    // With it (the default) both follow the plan.
+    assert!(worst(&rep1) <= 1.0 && rep1.interp.arc_corrections > 0);
 }
 
 #[test]
