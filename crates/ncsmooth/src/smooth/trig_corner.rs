@@ -60,7 +60,7 @@
 //!
 //! **The search** (where the paper only says "choose proper lambda"): for a tol-limited
 //! transition the peak curvature is `h F / tol`, `h` the peak curvature at `d = 1`. A
-//! table over `beta` in whole degrees, built once, holds the `rho` minimising `h F`
+//! table over `beta` in whole degrees, each entry computed on first use, holds the `rho` minimising `h F`
 //! (golden-section search in `[0.4, 2.2] x beta / tan(beta / 2)`, the tangent length of the
 //! circular arc, excluding inflected shapes); corners interpolate it linearly. `lambda = 1`
 //! is fixed: a grid over `lambda in [-1, 3]` never found a better one. The result is within
@@ -73,7 +73,7 @@
 //! leaves the corner `B` along the incoming direction, loops outside and returns through
 //! `B` along the outgoing direction, so the corner is cut exactly. Its excursion (largest
 //! distance from `B`) is `tau e`, `e` measured at `tau = 1`; `tau = loop_size (1 -
-//! CORNER_TOL_MARGIN) / e`. `lambda` per `beta` comes from a table built once: on a grid
+//! CORNER_TOL_MARGIN) / e`. `lambda` per `beta` comes from a table (entries computed on first use): on a grid
 //! of [`LOOP_LAMBDA_MIN`]..[`LOOP_LAMBDA_MAX`] the value with the lowest peak curvature at
 //! a given excursion, among shapes that turn one way only. Loops are used for turns in
 //! `[loop_min_turn_deg, LOOP_MAX_TURN_DEG]`; below, a loop would be a near full circle for
@@ -296,40 +296,40 @@ fn arc_rho(beta: f64) -> f64 {
     }
 }
 
-fn rho_table() -> &'static [f64] {
-    static TABLE: OnceLock<Vec<f64>> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        (0..=180)
-            .map(|deg| {
-                let beta = (deg as f64).clamp(1.0, 179.0).to_radians();
-                let r0 = arc_rho(beta);
-                let score = |s: f64| {
-                    let sh = round_shape_n(beta, r0 * s, TABLE_SAMPLES, false);
-                    if sh.inflects || sh.deviation.is_nan() || sh.deviation <= 0.0 {
-                        f64::NEG_INFINITY
-                    } else {
-                        -(sh.peak_curvature * sh.deviation)
-                    }
-                };
-                let (s, v) = golden_max(&score, RHO_BRACKET.0, RHO_BRACKET.1);
-                if v.is_finite() {
-                    r0 * s
-                } else {
-                    r0
-                }
-            })
-            .collect()
+/// Entries of the per-degree tables (0 to 180 degrees).
+const TABLE_LEN: usize = 181;
+
+/// The `rho` table entry for a whole number of degrees, computed on first use (a program
+/// turns by a few distinct angles; computing all 181 up front cost 0.13 s per run).
+fn rho_entry(deg: usize) -> f64 {
+    static TABLE: [OnceLock<f64>; TABLE_LEN] = [const { OnceLock::new() }; TABLE_LEN];
+    *TABLE[deg.min(TABLE_LEN - 1)].get_or_init(|| {
+        let beta = (deg as f64).clamp(1.0, 179.0).to_radians();
+        let r0 = arc_rho(beta);
+        let score = |s: f64| {
+            let sh = round_shape_n(beta, r0 * s, TABLE_SAMPLES, false);
+            if sh.inflects || sh.deviation.is_nan() || sh.deviation <= 0.0 {
+                f64::NEG_INFINITY
+            } else {
+                -(sh.peak_curvature * sh.deviation)
+            }
+        };
+        let (s, v) = golden_max(&score, RHO_BRACKET.0, RHO_BRACKET.1);
+        if v.is_finite() {
+            r0 * s
+        } else {
+            r0
+        }
     })
 }
 
 /// The `rho` of the inside transition for a turn of `beta` radians (table, linear
 /// interpolation in degrees; see module doc).
 pub fn round_rho(beta: f64) -> f64 {
-    let t = rho_table();
     let x = beta.to_degrees().clamp(0.0, 180.0);
     let i = (x.floor() as usize).min(179);
     let f = x - i as f64;
-    t[i] * (1.0 - f) + t[i + 1] * f
+    rho_entry(i) * (1.0 - f) + rho_entry(i + 1) * f
 }
 
 /// Peak curvature (1/mm) of the tol-limited inside transition for a turn of `beta`
@@ -384,32 +384,28 @@ fn loop_shape_n(beta: f64, lambda: f64, n: usize, refine: bool) -> LoopShape {
     }
 }
 
-fn loop_table() -> &'static [f64] {
-    static TABLE: OnceLock<Vec<f64>> = OnceLock::new();
-    TABLE.get_or_init(|| {
+/// The loop `lambda` table entry for a whole number of degrees, computed on first use.
+fn loop_entry(deg: usize) -> f64 {
+    static TABLE: [OnceLock<f64>; TABLE_LEN] = [const { OnceLock::new() }; TABLE_LEN];
+    *TABLE[deg.min(TABLE_LEN - 1)].get_or_init(|| {
         let steps = ((LOOP_LAMBDA_MAX - LOOP_LAMBDA_MIN) / LOOP_LAMBDA_STEP).round() as usize;
-        (0..=180)
-            .map(|deg| {
-                let beta = (deg as f64).clamp(1.0, LOOP_MAX_TURN_DEG).to_radians();
-                let mut best = (f64::INFINITY, 0.0);
-                for i in 0..=steps {
-                    let l = LOOP_LAMBDA_MIN + i as f64 * LOOP_LAMBDA_STEP;
-                    let sh = loop_shape_n(beta, l, TABLE_SAMPLES, false);
-                    let score = sh.peak_curvature * sh.excursion;
-                    if !sh.inflects && score < best.0 {
-                        best = (score, l);
-                    }
-                }
-                best.1
-            })
-            .collect()
+        let beta = (deg as f64).clamp(1.0, LOOP_MAX_TURN_DEG).to_radians();
+        let mut best = (f64::INFINITY, 0.0);
+        for i in 0..=steps {
+            let l = LOOP_LAMBDA_MIN + i as f64 * LOOP_LAMBDA_STEP;
+            let sh = loop_shape_n(beta, l, TABLE_SAMPLES, false);
+            let score = sh.peak_curvature * sh.excursion;
+            if !sh.inflects && score < best.0 {
+                best = (score, l);
+            }
+        }
+        best.1
     })
 }
 
 /// The loop `lambda` for a turn of `beta` radians (table, nearest whole degree).
 pub fn loop_lambda(beta: f64) -> f64 {
-    let t = loop_table();
-    t[(beta.to_degrees().round().clamp(0.0, 180.0)) as usize]
+    loop_entry(beta.to_degrees().round().clamp(0.0, 180.0) as usize)
 }
 
 // ---------------------------------------------------------------------------------------
