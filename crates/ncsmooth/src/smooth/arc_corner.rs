@@ -537,7 +537,7 @@ mod tests {
     }
 
     #[test]
-    fn input_arcs_stay_and_joints_stop() {
+    fn input_arcs_stay_and_joints_blend() {
         let mut tp = Toolpath::new(Vec3::ZERO);
         tp.push_move(Move::feed(
             crate::geom::Line::new(Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)),
@@ -561,10 +561,15 @@ mod tests {
             3,
         ));
         let s = smooth(&tp, &arc_opts(0.01)).unwrap();
+        // The right-angle line-arc joint is blended (super::arc_joint), the arc -> line
+        // joint is tangent; the rest of the arc stays an exact arc of the same circle.
         assert_eq!(s.report.arc_joints, 1);
-        assert_eq!(s.report.corners_stopped, 1);
-        assert_eq!(s.report.corners_straight, 1); // arc -> line is tangent
-        assert!(s.toolpath.moves().any(|m| m.segment == Segment::Arc(a)));
+        assert_eq!(s.report.arc_joints_blended, 1);
+        assert_eq!(s.report.corners_stopped, 0);
+        assert!(s.toolpath.moves().any(
+            |m| matches!(m.segment, Segment::Arc(b) if b.center == a.center && b.radius == a.radius)
+        ));
+        assert_eq!(crate::verify::continuity(&s.toolpath).g0, 0);
         assert!(deviation(&s.toolpath, &tp, 1e-5).max_mm() <= 0.01);
     }
 

@@ -20,6 +20,9 @@
 //! so they are never smoothed. Feeds: an output piece gets the lowest programmed feed of
 //! the moves it spans.
 //!
+//! Non-tangent joints involving an input arc are blended first, the same way for every
+//! method ([`arc_joint`]); the method then works on lines, arcs and those blends.
+//!
 //! ## Methods
 //! * [`Method::None`]: the program unchanged (planning the raw path).
 //! * [`Method::Bspline`]: Guo et al., cubic B-spline corner transitions in a tolerance band.
@@ -28,6 +31,7 @@
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
 pub mod arc_corner;
+pub mod arc_joint;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
 pub mod screen;
@@ -186,8 +190,10 @@ pub struct SmoothReport {
     pub corners_straight: usize,
     /// Corners left as exact stops (e.g. non-tangent joints involving arcs).
     pub corners_stopped: usize,
-    /// Non-tangent joints that involve an input arc (a subset of the above, per method).
+    /// Non-tangent joints that involve an input arc (blended or stopped).
     pub arc_joints: usize,
+    /// Of those, the joints blended ([`arc_joint`]); the others are exact stops.
+    pub arc_joints_blended: usize,
     /// Micro-line runs fitted with a curve (NURBS / trig methods).
     pub runs_fitted: usize,
     /// Points per fitted run.
@@ -407,6 +413,21 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
 }
 
 fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
+    // Arc joints first (shared by every method), then the method on what that left.
+    let curve = match opts.method {
+        Method::None => return passthrough(chain),
+        Method::Trig => arc_joint::BlendCurve::Trig,
+        _ => arc_joint::BlendCurve::Bezier,
+    };
+    let blended =
+        arc_joint::blend_arc_joints(chain, opts.tol_mm, opts.straight_angle_deg, curve, report);
+    let chain = match &blended {
+        Some(moves) => &Chain {
+            moves,
+            start_extra: chain.start_extra,
+        },
+        None => chain,
+    };
     match opts.method {
         Method::None => passthrough(chain),
         Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),

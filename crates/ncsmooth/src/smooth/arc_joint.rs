@@ -1,0 +1,334 @@
+//! Blends at the non-tangent joints of a chain that involve an input arc: a G2/G3 meeting
+//! a line or another arc at an angle. Shared by every method, run before it.
+//!
+//! The three papers smooth corners between *lines*; none says what to do where an arc
+//! meets a line or an arc at an angle, and real CAM output has many such joints
+//! (linuxcnc_stellabee1.ngc: 17,720; ugs_Gates_combined_R12.nc: 7,655, most of them below
+//! 0.1 degree, rounding of the program's coordinates). Left alone, each is an exact stop.
+//!
+//! ## Construction
+//! At a joint `Q` between `A` (ending at `Q`) and `B` (starting at `Q`), both trimmed by the
+//! same arc length `d`: `A'` on `A` and `B'` on `B`, with unit tangents `T_A`, `T_B`
+//! there. The blend joins `A'` to `B'` tangentially (G1; the curvature steps, which the
+//! planner allows for):
+//!
+//! * [`BlendCurve::Bezier`] (B-spline and Wu methods): the cubic with control points `A'`,
+//!   `A' + h T_A`, `B' - h T_B`, `B'`, `h = `[`BLEND_HANDLE_SHARE`]` d`: on two lines this
+//!   is the corner Bezier with its inner control points on the legs, which misses the
+//!   corner by `d sin(turn/2) / 2`.
+//! * [`BlendCurve::Trig`] (Tao's method): the trigonometric Hermite segment
+//!   ([`TrigSpline::hermite`], `lambda = 1`) with the same end tangents and derivative
+//!   magnitude `|A' B'|`, as the method's own run segments.
+//!
+//! ## Tolerance and search
+//! The blend replaces the pieces `A' Q` and `Q B'`; its two-sided deviation from them is
+//! measured ([`deviation_segments`], accuracy [`BLEND_MEASURE_SHARE`] of `tol`) and must be
+//! within `tol` with the accuracy added. As those pieces are part of the programmed path
+//! and `Q` is the only programmed vertex they hold, this bounds both sides of the contract.
+//! `d` starts at `1.9 tol / sin(turn/2)` (the corner Bezier's own bound, with a margin),
+//! at most [`BLEND_LINE_SHARE`] of a line and [`BLEND_ARC_SHARE`] of an arc (the rest is
+//! left to the joint or corner at the move's other end, and input arcs stay mostly
+//! exact), and halves until the measurement holds; a joint that
+//! never holds within [`BLEND_TRIES`] halvings stays an exact stop.
+//!
+//! ## Limits
+//! Joints turning by more than [`MAX_BLEND_TURN_DEG`] (near reversals) stay exact stops,
+//! as do joints with curves other than lines and arcs (G-code input has no others) and
+//! joints with a zero-length move. The two tangent joints of a blend are reported by the
+//! method that runs afterwards as straight junctions.
+
+use super::{assemble, Chain, ChainPos, OutPiece, SmoothReport};
+use crate::geom::{CubicBez, Line, ParamCurve, Segment, TrigSpline, Vec3};
+use crate::path::Move;
+use crate::verify::{deviation_segments, DEGENERATE_MM, GAP_TOL_MM};
+
+/// Curve of the blends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlendCurve {
+    /// Cubic Bezier (see the module doc).
+    Bezier,
+    /// Trigonometric Hermite segment.
+    Trig,
+}
+
+/// Largest turn (degrees) that gets a blend; sharper joints stay exact stops.
+pub const MAX_BLEND_TURN_DEG: f64 = 170.0;
+/// Share of a line's length that a blend at one of its ends may trim (the rest is left to
+/// the corner at its other end).
+pub const BLEND_LINE_SHARE: f64 = 0.45;
+/// Share of an arc's length that a blend at one of its ends may trim: at least half of
+/// every input arc stays an exact arc.
+pub const BLEND_ARC_SHARE: f64 = 0.25;
+/// Handle length of the Bezier blend, as a share of the trim length `d`.
+pub const BLEND_HANDLE_SHARE: f64 = 2.0 / 3.0;
+/// Accuracy of the blend measurement, as a share of `tol`.
+pub const BLEND_MEASURE_SHARE: f64 = 0.01;
+/// Halvings of the trim length tried before a joint is left as a stop.
+pub const BLEND_TRIES: usize = 48;
+/// First trim length, in units of `tol / sin(turn / 2)` (the corner Bezier misses the
+/// corner by `d sin(turn/2) / 2`).
+const FIRST_TRIM_FACTOR: f64 = 1.9;
+
+/// Length of a line or arc; `None` for other segments.
+fn line_or_arc_len(seg: &Segment) -> Option<f64> {
+    match seg {
+        Segment::Line(l) => Some(l.length()),
+        Segment::Arc(a) => Some(a.length()),
+        _ => None,
+    }
+}
+
+/// The part of a line or arc between the fractions `f0 < f1` of its length (exact ends
+/// where a fraction is 0 or 1).
+fn piece(seg: &Segment, f0: f64, f1: f64) -> Segment {
+    match seg {
+        Segment::Line(l) => {
+            let p0 = if f0 <= 0.0 { l.p0 } else { l.p0.lerp(l.p1, f0) };
+            let p1 = if f1 >= 1.0 { l.p1 } else { l.p0.lerp(l.p1, f1) };
+            Segment::Line(Line::new(p0, p1))
+        }
+        Segment::Arc(a) if f0 <= 0.0 && f1 >= 1.0 => Segment::Arc(*a),
+        Segment::Arc(a) => Segment::Arc(a.subsegment(f0, f1)),
+        other => other.clone(),
+    }
+}
+
+/// The blend from the end of `a` (tangent `ta`) to the start of `b` (tangent `tb`).
+fn blend(p0: Vec3, ta: Vec3, p3: Vec3, tb: Vec3, d: f64, curve: BlendCurve) -> Segment {
+    match curve {
+        BlendCurve::Bezier => {
+            let h = BLEND_HANDLE_SHARE * d;
+            Segment::CubicBez(CubicBez::new(p0, p0 + ta * h, p3 - tb * h, p3))
+        }
+        BlendCurve::Trig => {
+            let m = p0.dist(p3);
+            Segment::Trig(TrigSpline::hermite(p0, p3, ta * m, tb * m, 1.0))
+        }
+    }
+}
+
+/// A blend placed at one joint: trims (arc length) of the two moves and the curve.
+struct Placed {
+    trim: f64,
+    curve: Segment,
+}
+
+/// Tries to blend the joint between `a` and `b` (lines or arcs, lengths `la`, `lb`)
+/// turning by `turn` radians.
+#[allow(clippy::too_many_arguments)]
+fn place(
+    a: &Segment,
+    b: &Segment,
+    la: f64,
+    lb: f64,
+    turn: f64,
+    tol: f64,
+    curve: BlendCurve,
+) -> Option<Placed> {
+    let acc = tol * BLEND_MEASURE_SHARE;
+    let by_tol = FIRST_TRIM_FACTOR * tol / (0.5 * turn).sin();
+    let share = |s: &Segment| match s {
+        Segment::Arc(_) => BLEND_ARC_SHARE,
+        _ => BLEND_LINE_SHARE,
+    };
+    let mut d = by_tol.min(share(a) * la).min(share(b) * lb);
+    for _ in 0..BLEND_TRIES {
+        if !(d > DEGENERATE_MM) {
+            return None;
+        }
+        let (fa, fb) = (1.0 - d / la, d / lb);
+        let (kept_a, tail_a) = (piece(a, 0.0, fa), piece(a, fa, 1.0));
+        let (head_b, kept_b) = (piece(b, 0.0, fb), piece(b, fb, 1.0));
+        if let (Some(ta), Some(tb)) = (kept_a.end_tangent(), kept_b.start_tangent()) {
+            let c = blend(kept_a.end(), ta, kept_b.start(), tb, d, curve);
+            let dev = deviation_segments(&[(&c, 0)], &[(&tail_a, 0), (&head_b, 0)], acc);
+            if dev.max_mm() + acc <= tol {
+                return Some(Placed { trim: d, curve: c });
+            }
+        }
+        d *= 0.5;
+    }
+    None
+}
+
+/// Blends the non-tangent joints of `chain` that involve an arc (see the module doc).
+/// Returns the new moves, or `None` when no joint was blended (the chain is then used as
+/// it is). Counts blended joints in `corners_smoothed`, `arc_joints` and
+/// `arc_joints_blended`.
+pub fn blend_arc_joints(
+    chain: &Chain<'_>,
+    tol: f64,
+    straight_angle_deg: f64,
+    curve: BlendCurve,
+    report: &mut SmoothReport,
+) -> Option<Vec<Move>> {
+    let moves = chain.moves;
+    let n = moves.len();
+    if n < 2 || !moves.iter().any(|m| matches!(m.segment, Segment::Arc(_))) {
+        return None;
+    }
+    let lens: Vec<Option<f64>> = moves.iter().map(|m| line_or_arc_len(&m.segment)).collect();
+    // placed[j]: the blend at the joint before move j.
+    let mut placed: Vec<Option<Placed>> = (0..=n).map(|_| None).collect();
+    let mut any = false;
+    for j in 1..n {
+        let (a, b) = (&moves[j - 1].segment, &moves[j].segment);
+        if !(matches!(a, Segment::Arc(_)) || matches!(b, Segment::Arc(_))) {
+            continue;
+        }
+        let (Some(la), Some(lb)) = (lens[j - 1], lens[j]) else {
+            continue;
+        };
+        if la <= DEGENERATE_MM || lb <= DEGENERATE_MM || a.end().dist(b.start()) > GAP_TOL_MM {
+            continue;
+        }
+        let Some(turn) = super::turn_angle_deg(a, b) else {
+            continue;
+        };
+        if turn < straight_angle_deg || turn > MAX_BLEND_TURN_DEG {
+            continue;
+        }
+        if let Some(p) = place(a, b, la, lb, turn.to_radians(), tol, curve) {
+            placed[j] = Some(p);
+            any = true;
+        }
+    }
+    if !any {
+        return None;
+    }
+    let mut pieces = Vec::with_capacity(n + 2 * placed.iter().flatten().count());
+    for i in 0..n {
+        let seg = &moves[i].segment;
+        let trim0 = placed[i].as_ref().map_or(0.0, |p| p.trim);
+        let trim1 = placed[i + 1].as_ref().map_or(0.0, |p| p.trim);
+        if trim0 == 0.0 && trim1 == 0.0 {
+            pieces.push(OutPiece {
+                segment: seg.clone(),
+                from: ChainPos::start_of(i),
+                to: ChainPos::end_of(i),
+            });
+        } else {
+            let len = lens[i].expect("blended moves are lines or arcs");
+            let (f0, f1) = (trim0 / len, 1.0 - trim1 / len);
+            pieces.push(OutPiece {
+                segment: piece(seg, f0, f1),
+                from: ChainPos { index: i, frac: f0 },
+                to: ChainPos { index: i, frac: f1 },
+            });
+        }
+        if let Some(p) = &placed[i + 1] {
+            let lb = lens[i + 1].expect("blended moves are lines or arcs");
+            report.corners_smoothed += 1;
+            report.arc_joints += 1;
+            report.arc_joints_blended += 1;
+            pieces.push(OutPiece {
+                segment: p.curve.clone(),
+                from: ChainPos {
+                    index: i,
+                    frac: 1.0 - p.trim / lens[i].unwrap_or(1.0),
+                },
+                to: ChainPos {
+                    index: i + 1,
+                    frac: p.trim / lb,
+                },
+            });
+        }
+    }
+    Some(assemble(chain, pieces))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Arc, ParamCurveDeriv};
+    use crate::path::Toolpath;
+    use crate::smooth::{smooth, Method, SmoothOptions};
+    use crate::verify::{continuity, deviation};
+    use proptest::prelude::*;
+
+    /// A line into a quarter circle at an angle, then a line out of it at another.
+    fn line_arc_line(turn_in_deg: f64, turn_out_deg: f64, r: f64) -> Toolpath {
+        let (ti, to) = (turn_in_deg.to_radians(), turn_out_deg.to_radians());
+        // The arc starts at the origin heading +x and turns left by 90 degrees.
+        let arc = Arc::from_center(
+            Vec3::ZERO,
+            Vec3::new(r, r, 0.0),
+            Vec3::new(0.0, r, 0.0),
+            Vec3::Z,
+            true,
+            0,
+        )
+        .unwrap();
+        let d_in = Vec3::new(ti.cos(), -ti.sin(), 0.0);
+        let t_end = arc.deriv(1.0).normalized().unwrap();
+        let d_out = Vec3::new(
+            t_end.x * to.cos() - t_end.y * to.sin(),
+            t_end.x * to.sin() + t_end.y * to.cos(),
+            0.0,
+        );
+        let p0 = -d_in * 5.0;
+        let p3 = arc.end() + d_out * 5.0;
+        let mut tp = Toolpath::new(p0);
+        tp.push_move(Move::feed(Line::new(p0, Vec3::ZERO), Some(20.0), 1));
+        tp.push_move(Move::feed(arc, Some(20.0), 2));
+        tp.push_move(Move::feed(Line::new(arc.end(), p3), Some(20.0), 3));
+        tp
+    }
+
+    fn check(tp: &Toolpath, method: Method, tol: f64) -> crate::smooth::Smoothed {
+        let o = SmoothOptions {
+            method,
+            tol_mm: tol,
+            ..Default::default()
+        };
+        let s = smooth(tp, &o).unwrap();
+        let d = deviation(&s.toolpath, tp, tol * 1e-3);
+        assert!(d.max_mm() <= tol, "{method:?}: {d:?}");
+        assert_eq!(s.toolpath.end_point(), tp.end_point());
+        s
+    }
+
+    #[test]
+    fn arc_joints_are_blended_g1_within_tol() {
+        for method in [Method::Bspline, Method::Arc, Method::Nurbs, Method::Trig] {
+            for (a, b) in [(30.0, 45.0), (0.05, 0.02), (120.0, 5.0)] {
+                for tol in [0.001, 0.01, 0.1] {
+                    let tp = line_arc_line(a, b, 2.0);
+                    let s = check(&tp, method, tol);
+                    let c = continuity(&s.toolpath);
+                    assert_eq!(c.g0, 0, "{method:?} {a} {b} {tol}: {c:?}");
+                    assert_eq!(s.report.arc_joints_blended, 2, "{:?}", s.report);
+                    assert_eq!(s.report.corners_stopped, 0, "{:?}", s.report);
+                    // The arc is still there, exact, between the blends.
+                    assert!(s
+                        .toolpath
+                        .moves()
+                        .any(|m| matches!(m.segment, Segment::Arc(_))));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn reversals_stay_stops() {
+        let tp = line_arc_line(175.0, 0.0, 2.0);
+        let s = check(&tp, Method::Bspline, 0.01);
+        assert_eq!(s.report.arc_joints_blended, 0);
+        assert_eq!(s.report.corners_stopped, 1, "{:?}", s.report);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn random_arc_joints_hold_tol(
+            a in 0.0..160.0f64, b in 0.0..160.0f64, r in 0.05..50.0f64,
+            tol in 0.0005..0.2f64, m in 0usize..4,
+        ) {
+            let method = [Method::Bspline, Method::Arc, Method::Nurbs, Method::Trig][m];
+            let tp = line_arc_line(a, b, r);
+            let s = check(&tp, method, tol);
+            let c = continuity(&s.toolpath);
+            prop_assert!(c.g0 <= s.report.corners_stopped, "{:?} {:?}", c, s.report);
+        }
+    }
+}
