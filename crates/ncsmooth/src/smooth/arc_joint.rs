@@ -133,7 +133,7 @@ fn place(
     };
     let mut d = by_tol.min(share(a) * la).min(share(b) * lb);
     for _ in 0..BLEND_TRIES {
-        if !(d > DEGENERATE_MM) {
+        if d.is_nan() || d <= DEGENERATE_MM {
             return None;
         }
         let (fa, fb) = (1.0 - d / la, d / lb);
