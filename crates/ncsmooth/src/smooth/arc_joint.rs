@@ -25,7 +25,7 @@
 //! measured ([`deviation_segments`], accuracy [`BLEND_MEASURE_SHARE`] of `tol`) and must be
 //! within `tol` with the accuracy added. As those pieces are part of the programmed path
 //! and `Q` is the only programmed vertex they hold, this bounds both sides of the contract.
-//! `d` starts at `1.9 tol / sin(turn/2)` (the corner Bezier's own bound, with a margin),
+//! `d` starts at `1.8 tol / sin(turn/2)` (the corner Bezier's own bound, with a margin),
 //! at most [`BLEND_LINE_SHARE`] of a line and [`BLEND_ARC_SHARE`] of an arc (the rest is
 //! left to the joint or corner at the move's other end, and input arcs stay mostly
 //! exact), and halves until the measurement holds; a joint that
@@ -62,12 +62,12 @@ pub const BLEND_ARC_SHARE: f64 = 0.25;
 /// Handle length of the Bezier blend, as a share of the trim length `d`.
 pub const BLEND_HANDLE_SHARE: f64 = 2.0 / 3.0;
 /// Accuracy of the blend measurement, as a share of `tol`.
-pub const BLEND_MEASURE_SHARE: f64 = 0.01;
+pub const BLEND_MEASURE_SHARE: f64 = 0.05;
 /// Halvings of the trim length tried before a joint is left as a stop.
 pub const BLEND_TRIES: usize = 48;
 /// First trim length, in units of `tol / sin(turn / 2)` (the corner Bezier misses the
 /// corner by `d sin(turn/2) / 2`).
-const FIRST_TRIM_FACTOR: f64 = 1.9;
+const FIRST_TRIM_FACTOR: f64 = 1.8;
 
 /// Length of a line or arc; `None` for other segments.
 fn line_or_arc_len(seg: &Segment) -> Option<f64> {
