@@ -37,8 +37,10 @@
 //!   degrees and above at tol 0.01 mm) is kept as an exact stop and counted in
 //!   `corners_stopped`: such an arc is tangent to both legs within tol but far too tight
 //!   to be driven faster than the stop it replaces.
-//! * Input arcs stay exact. A non-tangent joint that involves an input arc (or any other
-//!   curve) is kept as an exact stop, counted in `corners_stopped` and `arc_joints`.
+//! * Input arcs stay exact. A non-tangent joint that involves an input arc is blended
+//!   before this method runs ([`super::arc_joint`], a G1 Bezier within tol; Wu's paper has
+//!   only lines and fitted curves); one that cannot be (a near reversal, another curve
+//!   kind) is kept as an exact stop, counted in `corners_stopped` and `arc_joints`.
 //! * Chain ends (rapids, events) are kept exactly, closed contours included: the closing
 //!   corner of a closed chain is where the chain is entered and left, so it stays a stop.
 

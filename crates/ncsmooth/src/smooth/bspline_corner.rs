@@ -67,9 +67,12 @@
 //!   the B-spline would retrace the leg with a cusp at `M`. It is an exact stop
 //!   (`corners_stopped`). So is a corner whose transition would be shorter than
 //!   [`DEGENERATE_MM`] (possible only with `lambda` close to 1).
-//! * **Arcs** (and any other curve in the input) stay exact. Tangent joints need nothing;
-//!   a non-tangent joint involving a curve is an exact stop, counted in `arc_joints` and
-//!   `corners_stopped`. The adjacent line may then be used in full by its other corner.
+//! * **Arcs** (and any other curve in the input) stay exact. Tangent joints need nothing.
+//!   A non-tangent joint involving an input arc has been blended before this method runs
+//!   ([`super::arc_joint`]: a G1 Bezier on the trimmed arc's end tangent, within tol), so
+//!   it arrives here as two tangent joints; one that could not be blended (a near
+//!   reversal) is an exact stop, counted in `arc_joints` and `corners_stopped`. The
+//!   adjacent line may then be used in full by its other corner.
 //! * **Zero-length moves** (lines up to [`DEGENERATE_MM`]) are skipped: the corner is formed
 //!   by the neighbouring lines, the vertex kept within that length. Non-finite input leaves
 //!   the chain unchanged.

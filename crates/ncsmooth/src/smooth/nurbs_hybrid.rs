@@ -29,8 +29,9 @@
 //!    tangent to it, and the stub joins the curve tangentially: G1 throughout.
 //!    Without end-tangent constraints the curve's end tangent is free; such joints are not
 //!    blended (exact stop, counted) rather than risking an unmeasured `E`.
-//! 5. **Input arcs** stay exact; non-tangent joints involving them are exact stops, counted
-//!    in `corners_stopped` and `arc_joints` (as in `--method arc`).
+//! 5. **Input arcs** stay exact; non-tangent joints involving them are blended first
+//!    ([`super::arc_joint`], as in `--method arc`), and the few that cannot be are exact
+//!    stops, counted in `corners_stopped` and `arc_joints`.
 //!
 //! Report: `runs_fitted` counts the emitted curves (after splitting), `points_per_run` and
 //! `fit_deviation_per_run_mm` (the measured deviation) are given per emitted curve.

@@ -16,9 +16,11 @@
 //!   exact sharp corner, counted in `corners_stopped`.
 //!
 //! Chain ends, and the joints with non-line moves, are kept exactly. Input arcs stay exact
-//! [`Arc`](crate::geom::Arc)s (native G2/G3, no approximation); a non-tangent joint involving
-//! an arc (or any other non-line move) is a stop, counted in `corners_stopped` and, when an
-//! arc is involved, in `arc_joints`.
+//! [`Arc`](crate::geom::Arc)s (native G2/G3, no approximation). A non-tangent joint
+//! involving an arc has been blended before this method runs ([`super::arc_joint`], with
+//! a trig Hermite segment on the trimmed arc's end tangent, within tol); one that could
+//! not be (a near reversal, another curve kind) is a stop, counted in `corners_stopped`
+//! and, when an arc is involved, in `arc_joints`.
 //!
 //! Each leg `V_j V_(j+1)` becomes: the rest of the line between the transitions of its two
 //! ends, or, when an end is smooth, one trig segment ([`TrigSpline::hermite`], `lambda =
