@@ -188,7 +188,9 @@ pub struct SmoothReport {
     pub corners_smoothed: usize,
     /// Junctions passed through as straight.
     pub corners_straight: usize,
-    /// Corners left as exact stops (e.g. non-tangent joints involving arcs).
+    /// Corners inside chains left as exact stops (near reversals, joints that could not be
+    /// blended). Joints at chain ends (a rapid, an event) are stops of the program itself
+    /// and are not counted.
     pub corners_stopped: usize,
     /// Non-tangent joints that involve an input arc (blended or stopped).
     pub arc_joints: usize,
