@@ -12,7 +12,10 @@ a fourth coordinate equal to s carries the feed limit (|ds/dt| <= feed) as a joi
 limit. Constraints: per-axis |acceleration| <= acc (and |velocity| <= vaxis if given).
 TOPP-RA knows no chord-error limit, so plan with a large --chord-error for a fair ratio.
 The path must be tangent-continuous (a smoothed path): TOPP-RA on a spline through a
-cornered polyline would round the corners. Prints the two cycle times and their ratio.
+cornered polyline would round the corners. Where the program stops anyway (the profiles
+start with a rapid from the machine origin to the first point, a corner ncsmooth stops at),
+pass the arc lengths of those stops with `--stops S1,S2,...`: TOPP-RA then plans each part
+from rest to rest and the durations add up. Prints the two cycle times and their ratio.
 """
 import argparse
 import json
@@ -35,14 +38,13 @@ def main():
     ap.add_argument("--feed", type=float, required=True, help="feed limit (mm/s)")
     ap.add_argument("--acc", required=True, help="acceleration (mm/s^2), one value or x,y,z")
     ap.add_argument("--vaxis", help="per-axis velocity (mm/s), one value or x,y,z")
-    ap.add_argument("--gridpoints", type=int, default=4000, help="TOPP-RA grid points")
+    ap.add_argument("--gridpoints", type=int, default=4000, help="TOPP-RA grid points (whole path)")
+    ap.add_argument("--stops", default="", help="arc lengths (mm) where the machine stops, comma separated")
     a = ap.parse_args()
     d = np.loadtxt(a.samples, delimiter=",", skiprows=1)
     s = d[:, 0]
     keep = np.concatenate([[True], np.diff(s) > 1e-12])
     s, xyz = s[keep], d[keep, 1:4]
-    way = np.column_stack([xyz, s])
-    path = ta.SplineInterpolator(s, way)
     acc = axes(a.acc)
     big = 1e12
     vl = np.array([[-big, big]] * 3 + [[-a.feed, a.feed]])
@@ -51,12 +53,20 @@ def main():
             vl[i] = [-v, v]
     al = np.array([[-x, x] for x in acc] + [[-big, big]])
     cons = [constraint.JointVelocityConstraint(vl), constraint.JointAccelerationConstraint(al)]
-    grid = np.linspace(s[0], s[-1], a.gridpoints)
-    inst = algo.TOPPRA(cons, path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
-    traj = inst.compute_trajectory(0, 0)
-    if traj is None:
-        raise SystemExit("TOPP-RA failed")
-    t_opt = traj.duration
+    stops = sorted(float(x) for x in a.stops.split(",") if x.strip())
+    bounds = [s[0]] + [x for x in stops if s[0] < x < s[-1]] + [s[-1]]
+    t_opt = 0.0
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        sel = (s >= lo - 1e-9) & (s <= hi + 1e-9)
+        ss, pp = s[sel], xyz[sel]
+        path = ta.SplineInterpolator(ss, np.column_stack([pp, ss]))
+        n = max(50, int(a.gridpoints * (hi - lo) / (s[-1] - s[0])))
+        grid = np.linspace(ss[0], ss[-1], n)
+        inst = algo.TOPPRA(cons, path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
+        traj = inst.compute_trajectory(0, 0)
+        if traj is None:
+            raise SystemExit("TOPP-RA failed on [%g, %g]" % (lo, hi))
+        t_opt += traj.duration
     rep = json.load(open(a.report))
     plan = rep.get("plan", rep)
     t_ours = plan["cycle_time_s"]
