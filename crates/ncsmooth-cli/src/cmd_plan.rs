@@ -254,8 +254,8 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
             (rep, Some(w.into_inner().map_err(|e| e.into_error())?))
         }
         (None, Some(_)) => {
-            let out = std::io::stdout().lock();
-            let w = BufWriter::new(out);
+            // Unlocked: the setpoints are written from the planner's second thread.
+            let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, std::io::stdout());
             (execute(&smoothed.toolpath, &popts, &iopts, w)?.0, None)
         }
         (None, None) => (

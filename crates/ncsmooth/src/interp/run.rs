@@ -3,6 +3,12 @@
 //! `t = n T`), the [`Interpolator`] and the [`SetpointWriter`], and report what was
 //! measured. Nothing is collected: memory is bounded by the planner's window.
 //!
+//! Two threads: the calling thread indexes and plans and takes the samples; a second one
+//! ([`std::thread::scope`]) interpolates, formats, measures and writes them, fed in batches
+//! of [`EMIT_BATCH`] through a channel of at most [`EMIT_QUEUE_BATCHES`] batches (so the
+//! memory stays bounded). The order of samples and rests is kept; the stage times of the
+//! two threads overlap, and `total_s` is the wall-clock time of the whole run.
+//!
 //! Time: every stop (corner, event, dwell, end) is held until the next period boundary,
 //! so stop points are setpoints and the last row, at the first period boundary at or after
 //! the end of motion, is exactly the program's end point.
@@ -206,7 +212,8 @@ pub struct StageTimes {
     pub interpolate_s: f64,
     /// Formatting, writing and measuring the rows.
     pub write_s: f64,
-    /// The whole run.
+    /// The whole run, wall clock. Interpolation and writing run on a second thread while
+    /// the planner works, so the stages add up to more than this.
     pub total_s: f64,
 }
 
@@ -253,9 +260,52 @@ pub struct PlanReport {
     pub real_time_factor: f64,
 }
 
-/// Planned samples collected before they are interpolated and written (and their time is
-/// taken).
-const EMIT_BATCH: usize = 512;
+/// Planned samples collected before they are sent to the emitting thread, interpolated
+/// and written (and their time is taken).
+const EMIT_BATCH: usize = 4096;
+/// Batches the channel to the emitting thread holds before the planner waits.
+const EMIT_QUEUE_BATCHES: usize = 4;
+
+/// What the planning thread sends the emitting thread, in order.
+#[derive(Clone, Copy)]
+enum EmitItem {
+    /// A sample `(t, s, v)`.
+    Sample(f64, f64, f64),
+    /// The machine comes to rest at `s` (see [`Emitter::rest_at`]); extra-axis motions
+    /// there begin at time `begin`.
+    RestAt { s: f64, begin: f64 },
+}
+
+/// The planning thread's end of the channel: collects items into batches.
+struct EmitQueue {
+    tx: std::sync::mpsc::SyncSender<Vec<EmitItem>>,
+    batch: Vec<EmitItem>,
+}
+
+impl EmitQueue {
+    fn push(&mut self, time: f64, s: f64, v: f64) {
+        self.send(EmitItem::Sample(time, s, v));
+    }
+
+    fn rest_at(&mut self, s: f64, begin: f64) {
+        self.send(EmitItem::RestAt { s, begin });
+    }
+
+    fn send(&mut self, item: EmitItem) {
+        self.batch.push(item);
+        if self.batch.len() >= EMIT_BATCH {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        if !self.batch.is_empty() {
+            let full = std::mem::replace(&mut self.batch, Vec::with_capacity(EMIT_BATCH));
+            // A closed channel means the emitter stopped on a write error, which it keeps.
+            let _ = self.tx.send(full);
+        }
+    }
+}
 
 /// Turns planned samples `(t, s, v)` into written setpoints: collected in batches,
 /// interpolated, given the extra-axis motion of the stop they rest at (if any), written;
@@ -276,11 +326,19 @@ struct Emitter<'i, 'p, 'a, W: Write> {
 }
 
 impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
-    /// Queues a sample; interpolates and writes when the batch is full.
-    fn push(&mut self, time: f64, s: f64, v: f64) {
-        self.batch.push((time, s, v));
-        if self.batch.len() >= EMIT_BATCH {
+    /// Handles the items of the planning thread until it hangs up or a write fails.
+    fn run(&mut self, rx: std::sync::mpsc::Receiver<Vec<EmitItem>>) {
+        for items in rx {
+            for item in items {
+                match item {
+                    EmitItem::Sample(t, s, v) => self.batch.push((t, s, v)),
+                    EmitItem::RestAt { s, begin } => self.rest_at(s, begin),
+                }
+            }
             self.flush();
+            if self.err.is_some() {
+                return;
+            }
         }
     }
 
@@ -338,7 +396,7 @@ impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
 
 /// Plans `path` under `popts`, interpolates it with `iopts` and writes the setpoints to
 /// `out` (use `std::io::sink()` to only measure). Returns the report and the writer.
-pub fn execute<W: Write>(
+pub fn execute<W: Write + Send>(
     path: &Toolpath,
     popts: &PlanOptions,
     iopts: &InterpOptions,
@@ -349,7 +407,7 @@ pub fn execute<W: Write>(
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
     let period = popts.period_s;
-    let mut em = Emitter {
+    let mut emitter = Emitter {
         interp: Interpolator::new(&index, *iopts),
         writer: SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?,
         rests: &index.rests,
@@ -361,80 +419,24 @@ pub fn execute<W: Write>(
         interp_s: 0.0,
         write_s: 0.0,
     };
-    let (mut t, mut n) = (0.0f64, 0u64);
-    let hold = popts.stop_hold_s();
-    let mut filter = popts.jerk_caps().map(|j| MovingAverage::new(j.window_s));
-    let planning = plan_stream(&index, popts, |ev| match ev {
-        ev if filter.is_some() => {
-            let f = filter.as_mut().expect("jerk mode");
-            let last = match ev {
-                PlanEvent::Piece(pc) => {
-                    f.push(Stretch {
-                        t0: t,
-                        t1: t + pc.dt,
-                        s0: pc.s0,
-                        v0: pc.v0,
-                        a: pc.acc(),
-                        rest: false,
-                    });
-                    t += pc.dt;
-                    None
-                }
-                PlanEvent::Stop { s, reason, dwell_s } => {
-                    // Rest for the filter window more than the trapezoid would, so the
-                    // filtered motion comes to rest at the stop (see feed::jerk); the
-                    // filtered X, Y, Z are at rest from one window after the plan.
-                    let rest_end = t + dwell_s + hold;
-                    let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
-                    if reason == StopReason::End {
-                        k = k.max(n);
-                    }
-                    em.rest_at(s, t + hold);
-                    f.push(Stretch {
-                        t0: t,
-                        t1: k as f64 * period,
-                        s0: s,
-                        v0: 0.0,
-                        a: 0.0,
-                        rest: true,
-                    });
-                    t = k as f64 * period;
-                    (reason == StopReason::End).then_some(k)
-                }
-            };
-            while (n as f64) * period <= f.t_known || last.is_some_and(|k| n <= k) {
-                let time = n as f64 * period;
-                let (s, v) = f.sample(time);
-                em.push(time, s, v);
-                n += 1;
-            }
-        }
-        PlanEvent::Piece(pc) => {
-            // Samples of this piece (interpolated and written in batches).
-            while (n as f64) * period < t + pc.dt {
-                let time = n as f64 * period;
-                let (s, v) = pc.at(time - t);
-                em.push(time, s, v);
-                n += 1;
-            }
-            t += pc.dt;
-        }
-        PlanEvent::Stop { s, reason, dwell_s } => {
-            em.rest_at(s, t);
-            let rest_end = t + dwell_s;
-            let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
-            if reason == StopReason::End {
-                k = k.max(n);
-            }
-            let last = if reason == StopReason::End { k + 1 } else { k };
-            while n < last {
-                em.push(n as f64 * period, s, 0.0);
-                n += 1;
-            }
-            t = k as f64 * period;
-        }
+    let (tx, rx) = std::sync::mpsc::sync_channel(EMIT_QUEUE_BATCHES);
+    let mut em = EmitQueue {
+        tx,
+        batch: Vec::with_capacity(EMIT_BATCH),
+    };
+    let (planning, em) = std::thread::scope(|scope| {
+        let worker = scope.spawn(move || {
+            emitter.run(rx);
+            emitter
+        });
+        let planning = plan_samples(&index, popts, &mut em);
+        em.flush();
+        drop(em);
+        let emitter = worker
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (planning, emitter)
     });
-    em.flush();
     let Emitter {
         interp,
         writer,
@@ -523,4 +525,83 @@ pub fn execute<W: Write>(
         real_time_factor: if total_s > 0.0 { cycle / total_s } else { 0.0 },
     };
     Ok((report, out))
+}
+
+/// Runs the planner over `index` and queues one sample per period (and the rests) on
+/// `em`, through the jerk filter when jerk limiting is on. Returns the planner's stats.
+fn plan_samples(index: &PathIndex, popts: &PlanOptions, em: &mut EmitQueue) -> PlanStats {
+    let period = popts.period_s;
+    let (mut t, mut n) = (0.0f64, 0u64);
+    let hold = popts.stop_hold_s();
+    let mut filter = popts.jerk_caps().map(|j| MovingAverage::new(j.window_s));
+    plan_stream(index, popts, |ev| match ev {
+        ev if filter.is_some() => {
+            let f = filter.as_mut().expect("jerk mode");
+            let last = match ev {
+                PlanEvent::Piece(pc) => {
+                    f.push(Stretch {
+                        t0: t,
+                        t1: t + pc.dt,
+                        s0: pc.s0,
+                        v0: pc.v0,
+                        a: pc.acc(),
+                        rest: false,
+                    });
+                    t += pc.dt;
+                    None
+                }
+                PlanEvent::Stop { s, reason, dwell_s } => {
+                    // Rest for the filter window more than the trapezoid would, so the
+                    // filtered motion comes to rest at the stop (see feed::jerk); the
+                    // filtered X, Y, Z are at rest from one window after the plan.
+                    let rest_end = t + dwell_s + hold;
+                    let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
+                    if reason == StopReason::End {
+                        k = k.max(n);
+                    }
+                    em.rest_at(s, t + hold);
+                    f.push(Stretch {
+                        t0: t,
+                        t1: k as f64 * period,
+                        s0: s,
+                        v0: 0.0,
+                        a: 0.0,
+                        rest: true,
+                    });
+                    t = k as f64 * period;
+                    (reason == StopReason::End).then_some(k)
+                }
+            };
+            while (n as f64) * period <= f.t_known || last.is_some_and(|k| n <= k) {
+                let time = n as f64 * period;
+                let (s, v) = f.sample(time);
+                em.push(time, s, v);
+                n += 1;
+            }
+        }
+        PlanEvent::Piece(pc) => {
+            // Samples of this piece (interpolated and written in batches).
+            while (n as f64) * period < t + pc.dt {
+                let time = n as f64 * period;
+                let (s, v) = pc.at(time - t);
+                em.push(time, s, v);
+                n += 1;
+            }
+            t += pc.dt;
+        }
+        PlanEvent::Stop { s, reason, dwell_s } => {
+            em.rest_at(s, t);
+            let rest_end = t + dwell_s;
+            let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
+            if reason == StopReason::End {
+                k = k.max(n);
+            }
+            let last = if reason == StopReason::End { k + 1 } else { k };
+            while n < last {
+                em.push(n as f64 * period, s, 0.0);
+                n += 1;
+            }
+            t = k as f64 * period;
+        }
+    })
 }
