@@ -57,7 +57,8 @@ use super::limits::{
 };
 use super::{PlanOptions, StopReason};
 use crate::geom::{
-    arclen_adaptive, ParamCurve, ParamCurveCurvature, ParamCurveDeriv, Segment, Vec3,
+    arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveCurvature, ParamCurveDeriv, Segment,
+    Vec3,
 };
 use crate::path::{Block, EventKind, ExtraAxes, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
@@ -284,6 +285,19 @@ fn curvature_at(seg: &Segment, t: f64) -> Vec3 {
         t + ZERO_SPEED_PROBE
     };
     seg.curvature_vec(tp)
+}
+
+/// Unit tangent, curvature vector and point at `t` (as [`tangent_at`], [`curvature_at`]
+/// and `eval`), from one evaluation of the point and its derivatives where the
+/// parametric speed does not vanish.
+fn geo_at(seg: &Segment, t: f64) -> (Vec3, Vec3, Vec3) {
+    let [p, d1, d2] = seg.ders(t);
+    let (s1, s2) = (d1.norm_sq(), d2.norm_sq());
+    if !(s1 > 1e-18 * s2.max(1e-300) && s1 > 0.0) || t <= 0.0 || t >= 1.0 {
+        return (tangent_at(seg, t), curvature_at(seg, t), p);
+    }
+    let tangent = d1 / s1.sqrt();
+    (tangent, curvature_vec_from(d1, d2), p)
 }
 
 fn tangent_at(seg: &Segment, t: f64) -> Vec3 {
@@ -595,14 +609,16 @@ pub fn arc_step(caps: &Caps) -> f64 {
         .min(MAX_TURN_DEG.to_radians())
 }
 
-/// Largest tangent turn (radians) of a curve interval starting with unit tangent `t`:
-/// term 1 of the module doc with the local [`u_bound`], at most [`MAX_TURN_DEG`].
-fn max_turn_at(t: Vec3, caps: &Caps) -> f64 {
+/// Cosine of the largest tangent turn of a curve interval starting with unit tangent `t`:
+/// term 1 of the module doc with the local [`u_bound`], the turn at most
+/// [`MAX_TURN_DEG`]. An interval is within it when its end tangents' dot product is at
+/// least this (no inverse trigonometry on the hot path).
+fn cos_max_turn_at(t: Vec3, caps: &Caps) -> f64 {
     let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
     let u = u_bound(t, caps) / a_min;
-    // 1 - cos(turn / 2) <= share / u, i.e. turn <= 2 acos(1 - share / u).
-    let c = (1.0 - TANGENT_SHARE / u).clamp(-1.0, 1.0);
-    (2.0 * c.acos()).min(MAX_TURN_DEG.to_radians())
+    // 1 - cos(turn / 2) <= share / u: cos(turn / 2) >= c, so cos(turn) >= 2 c^2 - 1.
+    let c = (1.0 - TANGENT_SHARE / u).clamp(0.0, 1.0);
+    (2.0 * c * c - 1.0).max(MAX_TURN_DEG.to_radians().cos())
 }
 
 /// Cap on `x = v^2` from the per-axis velocity limits `v` over a whole curved interval: a
@@ -620,19 +636,26 @@ fn vaxis_interval_cap(iv: &Interval, v: &[f64; 3]) -> f64 {
     x
 }
 
-/// Arc length of a piece of curve from its chord and the angle between its end tangents,
-/// as on a circular arc: `chord (turn/2) / sin(turn/2)`. For the grid's intervals (turn at
-/// most [`MAX_TURN_DEG`]) the whole correction is below 2e-5 of the chord and its error
-/// of a higher order; the move's last interval takes the remainder of the move's exact
-/// length, so the grid never drifts from the path's arc length.
-fn arc_from_chord(chord: f64, turn: f64) -> f64 {
-    let h = 0.5 * turn;
-    if h < 1e-4 {
-        chord * (1.0 + h * h / 6.0)
+/// Arc length of a piece of curve from its chord and the cosine `cos_turn` of the angle
+/// between its end tangents, as on a circular arc: `chord (turn/2) / sin(turn/2)`, i.e.
+/// `chord asin(x) / x` with `x = sin(turn/2) = sqrt((1 - cos_turn) / 2)`. For the grid's
+/// intervals (turn at most [`MAX_TURN_DEG`]) the whole correction is below 2e-5 of the
+/// chord and its error of a higher order; the move's last interval takes the remainder of
+/// the move's exact length, so the grid never drifts from the path's arc length.
+fn arc_from_chord(chord: f64, cos_turn: f64) -> f64 {
+    let x2 = (0.5 * (1.0 - cos_turn)).clamp(0.0, 1.0);
+    if x2 < ARC_SERIES_MAX_X2 {
+        // asin(x)/x = 1 + x^2/6 + 3 x^4/40 + 5 x^6/112 + O(x^8): the next term is below
+        // 4e-10 of the chord here.
+        chord * (1.0 + x2 * (1.0 / 6.0 + x2 * (3.0 / 40.0 + x2 * (5.0 / 112.0))))
     } else {
-        chord * h / h.sin()
+        let x = x2.sqrt();
+        chord * x.asin() / x
     }
 }
+
+/// Largest `sin^2(turn/2)` for which [`arc_from_chord`] uses its series.
+const ARC_SERIES_MAX_X2: f64 = 0.01;
 
 /// Geometry sample: parameter, unit tangent, curvature vector, point.
 type Sample = (f64, Vec3, Vec3, Vec3);
@@ -676,7 +699,7 @@ fn refine(
             continue;
         }
         let mid = known_mid.unwrap_or_else(|| sample(0.5 * (t0 + t1)));
-        let mut bad = left.1.angle_to(right.1) > max_turn_at(left.1, caps);
+        let mut bad = left.1.dot(right.1) < cos_max_turn_at(left.1, caps);
         if !bad {
             // Term 2: |u| ds |dK_i| / 2 <= share A_i (ds from the chord, a lower bound of
             // the arc that is within 1e-4 of it at the turn bound).
@@ -811,9 +834,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                         let (p, tt, kk) = a.frame(t);
                         (tt, kk, p)
                     }),
-                    _ => refine(n0, true, m.vcap_mm_s, caps, &|t| {
-                        (tangent_at(seg, t), curvature_at(seg, t), seg.eval(t))
-                    }),
+                    _ => refine(n0, true, m.vcap_mm_s, caps, &|t| geo_at(seg, t)),
                 };
                 let first = (params[0].1, params[0].2);
                 let mut start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);
@@ -825,7 +846,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     let ds = if i + 1 == last {
                         (m.len - s_acc).max(0.0)
                     } else {
-                        arc_from_chord(p0.dist(p1), t0.angle_to(t1))
+                        arc_from_chord(p0.dist(p1), t0.dot(t1))
                     };
                     s_acc += ds;
                     let cap = point_cap_x(t1, k1, m.vcap_mm_s, caps);

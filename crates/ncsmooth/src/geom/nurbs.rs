@@ -430,6 +430,11 @@ impl ParamCurveDeriv for Nurbs {
         let (a, b) = self.domain();
         self.ders_at_param(self.param(t))[2] * ((b - a) * (b - a))
     }
+    fn ders(&self, t: f64) -> [Vec3; 3] {
+        let (a, b) = self.domain();
+        let [p, d1, d2] = self.ders_at_param(self.param(t));
+        [p, d1 * (b - a), d2 * ((b - a) * (b - a))]
+    }
 }
 
 impl ParamCurveArclen for Nurbs {

@@ -108,6 +108,10 @@ impl ParamCurveDeriv for Segment {
     fn deriv2(&self, t: f64) -> Vec3 {
         dispatch!(self, c => c.deriv2(t))
     }
+    #[inline]
+    fn ders(&self, t: f64) -> [Vec3; 3] {
+        dispatch!(self, c => c.ders(t))
+    }
 }
 
 impl ParamCurveArclen for Segment {

@@ -49,6 +49,11 @@ pub trait ParamCurveDeriv: ParamCurve {
     fn deriv(&self, t: f64) -> Vec3;
     /// d^2C/dt^2.
     fn deriv2(&self, t: f64) -> Vec3;
+    /// Point, first and second derivative at `t` together (curves whose evaluation shares
+    /// work between them, such as NURBS, compute all three in one pass).
+    fn ders(&self, t: f64) -> [Vec3; 3] {
+        [self.eval(t), self.deriv(t), self.deriv2(t)]
+    }
 }
 
 /// Arc length and its inverse.

@@ -126,20 +126,26 @@ fn coeffs(l: f64, k: f64) -> [[f64; 6]; 3] {
 #[inline]
 fn funcs(u: f64) -> [f64; 6] {
     let (s, c) = (FRAC_PI_2 * u).sin_cos();
+    funcs_sc(s, c)
+}
+
+/// [`funcs`] from `S` and `C`.
+#[inline]
+fn funcs_sc(s: f64, c: f64) -> [f64; 6] {
     [c * c * c, s * s * s, s * s, c, s, 1.0]
 }
 
-/// First derivatives of [`funcs`] with respect to `u`, without the factor `pi / 2`.
+/// First derivatives of [`funcs`] with respect to `u`, without the factor `pi / 2`, from
+/// `S` and `C`.
 #[inline]
-fn funcs_d1(u: f64) -> [f64; 6] {
-    let (s, c) = (FRAC_PI_2 * u).sin_cos();
+fn funcs_d1_sc(s: f64, c: f64) -> [f64; 6] {
     [-3.0 * c * c * s, 3.0 * s * s * c, 2.0 * s * c, -s, c, 0.0]
 }
 
-/// Second derivatives of [`funcs`] with respect to `u`, without the factor `(pi / 2)^2`.
+/// Second derivatives of [`funcs`] with respect to `u`, without the factor `(pi / 2)^2`,
+/// from `S` and `C`.
 #[inline]
-fn funcs_d2(u: f64) -> [f64; 6] {
-    let (s, c) = (FRAC_PI_2 * u).sin_cos();
+fn funcs_d2_sc(s: f64, c: f64) -> [f64; 6] {
     [
         3.0 * c * (2.0 * s * s - c * c),
         3.0 * s * (2.0 * c * c - s * s),
@@ -148,6 +154,16 @@ fn funcs_d2(u: f64) -> [f64; 6] {
         -s,
         0.0,
     ]
+}
+
+/// `sum_m w_m f_m` over the first `n` terms.
+#[inline]
+fn combine(w: &[Vec3; 6], f: &[f64; 6], n: usize) -> Vec3 {
+    let mut p = Vec3::ZERO;
+    for m in 0..n {
+        p += w[m] * f[m];
+    }
+    p
 }
 
 /// Interval `[lo, hi]` arithmetic helpers for the proofs of the bounds.
@@ -308,13 +324,19 @@ impl TrigSpline {
     /// Point at the natural parameter `u` (ignores the window).
     #[inline]
     pub fn eval_u(&self, u: f64) -> Vec3 {
+        self.q0 + combine(&self.weights(), &funcs(u), 6)
+    }
+
+    /// The first derivative `dP/dt` as a function, the weights computed once (for
+    /// quadratures that evaluate it many times).
+    #[inline]
+    pub fn deriv_fn(&self) -> impl Fn(f64) -> Vec3 + '_ {
         let w = self.weights();
-        let f = funcs(u);
-        let mut p = Vec3::ZERO;
-        for m in 0..6 {
-            p += w[m] * f[m];
+        let scale = FRAC_PI_2 * (self.u1 - self.u0);
+        move |t| {
+            let (s, c) = (FRAC_PI_2 * self.u_of(t)).sin_cos();
+            combine(&w, &funcs_d1_sc(s, c), 5) * scale
         }
-        self.q0 + p
     }
 
     /// A bound on `|d^2 P / dt^2|` over `t in [ta, tb]`, by interval arithmetic on the
@@ -418,24 +440,25 @@ impl ParamCurve for TrigSpline {
 impl ParamCurveDeriv for TrigSpline {
     #[inline]
     fn deriv(&self, t: f64) -> Vec3 {
-        let w = self.weights();
-        let f = funcs_d1(self.u_of(t));
-        let mut p = Vec3::ZERO;
-        for m in 0..5 {
-            p += w[m] * f[m];
-        }
-        p * (FRAC_PI_2 * (self.u1 - self.u0))
+        self.deriv_fn()(t)
     }
     #[inline]
     fn deriv2(&self, t: f64) -> Vec3 {
-        let w = self.weights();
-        let f = funcs_d2(self.u_of(t));
-        let mut p = Vec3::ZERO;
-        for m in 0..5 {
-            p += w[m] * f[m];
-        }
+        let (s, c) = (FRAC_PI_2 * self.u_of(t)).sin_cos();
         let span = FRAC_PI_2 * (self.u1 - self.u0);
-        p * (span * span)
+        combine(&self.weights(), &funcs_d2_sc(s, c), 5) * (span * span)
+    }
+    /// One `sin_cos` and one set of weights for all three.
+    #[inline]
+    fn ders(&self, t: f64) -> [Vec3; 3] {
+        let w = self.weights();
+        let (s, c) = (FRAC_PI_2 * self.u_of(t)).sin_cos();
+        let span = FRAC_PI_2 * (self.u1 - self.u0);
+        [
+            self.q0 + combine(&w, &funcs_sc(s, c), 6),
+            combine(&w, &funcs_d1_sc(s, c), 5) * span,
+            combine(&w, &funcs_d2_sc(s, c), 5) * (span * span),
+        ]
     }
 }
 

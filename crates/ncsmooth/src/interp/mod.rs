@@ -213,10 +213,20 @@ impl InterpStats {
 }
 
 fn gl5_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
+    match seg {
+        // The spline's weights once, not at every node.
+        Segment::Trig(c) => gl5(c.deriv_fn(), a, b),
+        _ => gl5(|t| seg.deriv(t), a, b),
+    }
+}
+
+/// 5-point Gauss-Legendre integral of `|d(t)|` over `[a, b]`.
+#[inline]
+fn gl5(d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
     let h = 0.5 * (b - a);
     let m = 0.5 * (a + b);
     GL5.iter()
-        .map(|&(x, w)| w * seg.deriv(m + h * x).norm())
+        .map(|&(x, w)| w * d(m + h * x).norm())
         .sum::<f64>()
         * h
 }
