@@ -27,9 +27,8 @@ import time
 from geomdl import fitting
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BUTTERFLY = os.path.join(ROOT, "..", "..", "shared", "data", "profiles", "butterfly_1000.ngc")
-if not os.path.exists(BUTTERFLY):
-    BUTTERFLY = "/work/shared/data/profiles/butterfly_1000.ngc"
+# ../shared beside the repository, as the tests and the other scripts expect it.
+BUTTERFLY = os.path.join(ROOT, "..", "shared", "data", "profiles", "butterfly_1000.ngc")
 EXE = os.path.join(ROOT, "target", "release", "examples", "interp_dump")
 TOL = 1e-9
 MIN_RATIO_AT_1000 = 100.0
