@@ -596,28 +596,7 @@ mod tests {
                 for (i, s) in steps.iter().enumerate() {
                     // Every few steps inject a reversal, a 1-degree corner or a
                     // near-collinear step, depending on `mode`.
-                    let last = if pts.len() >= 2 {
-                        pts[pts.len() - 1] - pts[pts.len() - 2]
-                    } else {
-                        Vec3::X
-                    };
-                    // 1 turns by 1 degree, 3 makes a 1-degree corner (turns by 179).
-                    let turned = |deg: f64| {
-                        let a = deg.to_radians();
-                        Vec3::new(
-                            last.x * a.cos() - last.y * a.sin(),
-                            last.x * a.sin() + last.y * a.cos(),
-                            last.z,
-                        )
-                    };
-                    let st = match (mode as usize + i) % 7 {
-                        0 => -last,
-                        1 => turned(1.0),
-                        2 => last + Vec3::new(0.0, 1e-7, 0.0),
-                        3 => turned(179.0),
-                        _ => *s,
-                    };
-                    p += st;
+                    p += super::super::degenerate_step(&pts, *s, mode as usize + i);
                     pts.push(p);
                 }
                 (pts, tol)

@@ -445,6 +445,34 @@ pub fn turn_angle_deg(a: &Segment, b: &Segment) -> Option<f64> {
     Some(a.end_tangent()?.angle_to(b.start_tangent()?).to_degrees())
 }
 
+/// Test polylines: the next step after `pts` (at least one point) for the random step
+/// `s`, turned into a degenerate case by `k % 7`: 0 reverses the last step, 1 turns it by
+/// 1 degree, 2 repeats it near-collinearly, 3 makes a 1-degree corner (turns by 179), and
+/// the rest keep `s`. Shared by the methods' property tests.
+#[cfg(test)]
+pub(crate) fn degenerate_step(pts: &[Vec3], s: Vec3, k: usize) -> Vec3 {
+    let last = if pts.len() >= 2 {
+        pts[pts.len() - 1] - pts[pts.len() - 2]
+    } else {
+        Vec3::X
+    };
+    let turned = |deg: f64| {
+        let a = deg.to_radians();
+        Vec3::new(
+            last.x * a.cos() - last.y * a.sin(),
+            last.x * a.sin() + last.y * a.cos(),
+            last.z,
+        )
+    };
+    match k % 7 {
+        0 => -last,
+        1 => turned(1.0),
+        2 => last + Vec3::new(0.0, 1e-7, 0.0),
+        3 => turned(179.0),
+        _ => s,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
