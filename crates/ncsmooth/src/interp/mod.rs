@@ -220,6 +220,37 @@ fn gl5_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
     }
 }
 
+/// Gauss-Legendre 3-point nodes on [-1, 1] and weights.
+const GL3: [(f64, f64); 3] = [
+    (0.0, 8.0 / 9.0),
+    (-0.774_596_669_241_483_4, 5.0 / 9.0),
+    (0.774_596_669_241_483_4, 5.0 / 9.0),
+];
+
+/// Largest share of a step's parameter span that an arc-length correction may move by
+/// and still be integrated as a short piece ([`gl3_signed_arclen`]); the piece's
+/// quadrature error is then below the sixth power of that share relative to the step's
+/// own (already resolved) arc length.
+const CORRECTION_PIECE_SHARE: f64 = 0.01;
+
+/// Signed arc length from `a` to `b` (negative when `b < a`) by 3-point Gauss-Legendre,
+/// for the short pieces of an arc-length correction.
+fn gl3_signed_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
+    let h = 0.5 * (b - a);
+    let m = 0.5 * (a + b);
+    let sum: f64 = match seg {
+        Segment::Trig(c) => {
+            let d = c.deriv_fn();
+            GL3.iter().map(|&(x, w)| w * d(m + h * x).norm()).sum()
+        }
+        _ => GL3
+            .iter()
+            .map(|&(x, w)| w * seg.deriv(m + h * x).norm())
+            .sum(),
+    };
+    sum * h
+}
+
 /// 5-point Gauss-Legendre integral of `|d(t)|` over `[a, b]`.
 #[inline]
 fn gl5(d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
@@ -336,9 +367,10 @@ impl<'p, 'a> Interpolator<'p, 'a> {
     fn step_curve(&mut self, seg: &Segment, arc: f64) {
         self.stats.curve_steps += 1;
         let (u0, p0) = (self.u, self.p);
+        let [_, d1, d2] = seg.ders(u0);
         // Chord of the planned arc length on the osculating circle (eq. 15's V T = chord,
         // made exact for circles).
-        let kappa = curvature_vec_from(seg.deriv(u0), seg.deriv2(u0)).norm();
+        let kappa = curvature_vec_from(d1, d2).norm();
         let half = 0.5 * arc * kappa;
         let len = if half > MAX_HALF_ANGLE {
             f64::INFINITY
@@ -358,8 +390,6 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             self.p = p;
             return;
         }
-        let d1 = seg.deriv(u0);
-        let d2 = seg.deriv2(u0);
         let sp = d1.norm();
         let acc = d2.norm();
         let (mut lo, mut hi) = (u0, 1.0);
@@ -440,12 +470,21 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             for _ in 0..FALLBACK_ITERS {
                 let sp = seg.deriv(xi).norm();
                 let next = xi - (done - arc) / sp;
+                let prev = xi;
                 xi = if sp > 0.0 && next > lo && next < hi {
                     next
                 } else {
                     0.5 * (lo + hi)
                 };
-                done = step_arclen(seg, u0, xi);
+                // The arc length moves by the piece between the two parameters: a short
+                // piece (the Newton correction of a miss of at most a few micrometres)
+                // is integrated to rounding by 3-point Gauss-Legendre; a long one (a
+                // bisection) is measured again from the step's start.
+                done = if (xi - prev).abs() <= CORRECTION_PIECE_SHARE * (xi - u0).abs() {
+                    done + gl3_signed_arclen(seg, prev, xi)
+                } else {
+                    step_arclen(seg, u0, xi)
+                };
                 let err = done - arc;
                 if err.abs() <= ARC_CORRECTION_TOL_MM * 0.5 || hi - lo < 1e-16 {
                     break;
