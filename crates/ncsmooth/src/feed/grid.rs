@@ -4,35 +4,43 @@
 //! Lines are one straight interval each (their limits are constant along them, and the
 //! profile inside a straight interval may accelerate, cruise and decelerate, so no
 //! subdivision is needed). Arcs and curves are first cut uniformly in their parameter
-//! (no longer than about [`MAX_CURVE_DS_MM`], at least [`MIN_CURVE_INTERVALS`] per move,
-//! per knot span for NURBS); their arc lengths come from Gauss-Legendre quadrature checked
-//! to [`crate::interp::STEP_ARCLEN_ACCURACY_MM`] ([`crate::interp::step_arclen`]), the
-//! move's total from adaptive quadrature at [`ARCLEN_ACCURACY_MM`] (the last interval
-//! takes the remainder).
+//! (halves no longer than about [`MAX_CURVE_DS_MM`], at least [`MIN_CURVE_INTERVALS`] per
+//! move, per knot span for NURBS); their arc lengths come from the chords and end tangents
+//! of the halves ([`arc_from_chord`]), the move's total from adaptive quadrature at
+//! [`ARCLEN_ACCURACY_MM`] (the last interval takes the remainder).
 //!
 //! ## Refinement of curved intervals
 //! The planner imposes the per-axis acceleration `a_i = u T_i + x K_i` exactly at both
-//! ends of an interval, with `u` constant and `x = v^2` linear in `s` inside it. Between
-//! the ends `a_i` then differs from the straight line between its end values by three
-//! terms, and an interval is bisected until each is a small share of `A_i` (together well
-//! inside the [`super::ACC_PLANNING_FACTOR`] reserve):
+//! ends of a curved interval and at its parameter midpoint ([`IntervalMid`]; the
+//! midpoint's speed cap too), with `u` constant and `x = v^2` linear in `s` inside it:
+//! all of these are linear in the interval's two end values of `x`. On each half `a_i`
+//! then differs from the straight line between its two checked values by three terms,
+//! and an interval is bisected until each term is a small share of `A_i` on both halves
+//! (together well inside the [`super::ACC_PLANNING_FACTOR`] reserve):
 //!
 //! 1. the tangent's rotation: `u T_i` leaves the chord of its end values by up to
 //!    `|u| (1 - cos(turn / 2))`, kept within [`TANGENT_SHARE`]` A_i` (and the turn within
 //!    [`MAX_TURN_DEG`] for the velocity limits);
 //! 2. the product of two linear functions: `x K_i` bulges by `|dx dK_i| / 4` with
 //!    `dx = 2 u ds`, so `|u| ds |dK_i| / 2 <= `[`PRODUCT_SHARE`]` A_i`, with `|u|` bounded
-//!    by the largest tangential acceleration the end rows can allow ([`u_bound`]); this
-//!    term shrinks with the square of the interval, so curvature that changes fast over a
-//!    short transition needs only a few intervals;
-//! 3. curvature that is not linear in `s` inside the interval: checked at the quarter
-//!    points against the chord of the end values, within [`MAX_CURVATURE_BEND`] of the
-//!    larger of the local curvature and the floor `min_i A_i / vcap^2` (the curvature at
-//!    which the move's speed cap alone uses the smallest axis acceleration; below it the
-//!    speed cap, not the curvature, limits `x`), so `x |dK| <= ` that share of `A`.
+//!    by the largest tangential acceleration the checked rows can allow ([`u_bound`]);
+//!    this term shrinks with the square of the half, so curvature that changes fast over
+//!    a short transition needs only a few intervals;
+//! 3. curvature that is not linear in `s` inside the half: checked at the half's own
+//!    midpoint (the interval's quarter points) against the chord of its end values,
+//!    within [`MAX_CURVATURE_BEND`] of the larger of the local curvature and the floor
+//!    `min_i A_i / vcap^2` (the curvature at which the move's speed cap alone uses the
+//!    smallest axis acceleration; below it the speed cap, not the curvature, limits `x`),
+//!    so `x |dK| <= ` that share of `A`.
 //!
-//! Arcs and helices have constant curvature turning with the swept angle `phi` of an
-//! interval, so the three terms are `|u| phi^2 / 8`, `|u| phi^2 / 2` and `A phi^2 / 8`:
+//! The midpoint check halves the number of grid intervals against checking the ends
+//! only (the halves are what the terms bound), at the price of coarser `x` (linear over
+//! the whole interval): on linuxcnc_stellabee1 with `--method bspline` 12.8 M grid points
+//! became 6.7 M and the cycle time grew by 0.35 %. Jerk mode keeps its caps at grid
+//! points (see [`super::jerk`]), so there each half is an interval of its own.
+//!
+//! Arcs and helices have constant curvature turning with the swept angle `phi` of a
+//! half, so the three terms are `|u| phi^2 / 8`, `|u| phi^2 / 2` and `A phi^2 / 8`:
 //! arcs are cut uniformly at the largest sweep keeping all three within their shares
 //! ([`arc_step`]), with no refinement.
 //!
@@ -53,7 +61,7 @@
 //! of their own; the report gives their measured speeds and accelerations.
 
 use super::limits::{
-    g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, Caps, Interval, NEGLIGIBLE,
+    g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, Caps, Interval, IntervalMid, NEGLIGIBLE,
 };
 use super::{PlanOptions, StopReason};
 use crate::geom::{
@@ -71,9 +79,11 @@ pub const MAX_TURN_DEG: f64 = 4.0;
 /// Share of the axis acceleration allowed for the tangent's rotation inside an interval
 /// (term 1 of the module doc): `|u| (1 - cos(turn / 2)) <= share A`.
 pub const TANGENT_SHARE: f64 = 0.001;
-/// Longest curved grid interval (mm).
+/// Longest half of a curved grid interval (mm).
 pub const MAX_CURVE_DS_MM: f64 = 0.5;
-/// Fewest intervals per curved move (per knot span for NURBS).
+/// Fewest intervals per curved move (per knot span for NURBS), each checked at its ends
+/// and its midpoint. Two, so that a curved move between two stops has a grid point
+/// inside it (on one interval `x` is linear, so two ends at rest would leave no motion).
 pub const MIN_CURVE_INTERVALS: usize = 2;
 /// Most intervals per move (a guard against absurd inputs).
 pub const MAX_CURVE_INTERVALS: usize = 1 << 20;
@@ -622,13 +632,20 @@ fn cos_max_turn_at(t: Vec3, caps: &Caps) -> f64 {
 }
 
 /// Cap on `x = v^2` from the per-axis velocity limits `v` over a whole curved interval: a
-/// tangent component turning by `phi` between the ends exceeds the larger end value by at
-/// most the factor `1 / cos(phi / 2)` inside.
+/// tangent component turning by `phi` between two checks exceeds the larger of their
+/// values by at most the factor `1 / cos(phi / 2)` between them.
 fn vaxis_interval_cap(iv: &Interval, v: &[f64; 3]) -> f64 {
-    let grow = 1.0 / (0.5 * iv.t0.angle_to(iv.t1)).cos();
+    let (turn, tmax) = match &iv.mid {
+        Some(m) => (
+            iv.t0.angle_to(m.t).max(m.t.angle_to(iv.t1)),
+            abs_max(abs_max(iv.t0, m.t), iv.t1),
+        ),
+        None => (iv.t0.angle_to(iv.t1), abs_max(iv.t0, iv.t1)),
+    };
+    let grow = 1.0 / (0.5 * turn).cos();
     let mut x = f64::INFINITY;
     for i in 0..3 {
-        let t = iv.t0[i].abs().max(iv.t1[i].abs()) * grow;
+        let t = tmax[i] * grow;
         if t > NEGLIGIBLE {
             x = x.min((v[i] / t).powi(2));
         }
@@ -660,10 +677,12 @@ const ARC_SERIES_MAX_X2: f64 = 0.01;
 /// Geometry sample: parameter, unit tangent, curvature vector, point.
 type Sample = (f64, Vec3, Vec3, Vec3);
 
-/// Grid parameters of a curved move: `n0` uniform intervals, bisected (when `split`) until
-/// the three terms of the module doc are within their shares. `geo` gives the unit
-/// tangent, curvature vector and point at a parameter. Returns the accepted samples, first
-/// `t = 0`, last `t = 1`.
+/// Grid samples of a curved move: `n0` uniform intervals, each taken as two halves
+/// around its parameter midpoint, bisected (when `split`) until both halves keep the
+/// three terms of the module doc within their shares. `geo` gives the unit tangent,
+/// curvature vector and point at a parameter. Returns `2 N + 1` samples for the `N`
+/// accepted intervals: their ends at even indices (first `t = 0`, last `t = 1`) and their
+/// midpoints at odd ones.
 fn refine(
     n0: usize,
     split: bool,
@@ -681,7 +700,29 @@ fn refine(
     } else {
         0.0
     };
-    let mut params: Vec<Sample> = Vec::with_capacity(n0 + 1);
+    // Terms 1 and 2 on one half.
+    let turn_or_product = |l: &Sample, r: &Sample| {
+        if l.1.dot(r.1) < cos_max_turn_at(l.1, caps) {
+            return true;
+        }
+        // Term 2: |u| ds |dK_i| / 2 <= share A_i (ds from the chord, a lower bound of the
+        // arc that is within 1e-4 of it at the turn bound).
+        let ds = l.3.dist(r.3);
+        let dk = r.2 - l.2;
+        let half_u = 0.5 * u_bound(l.1, caps);
+        (0..3).any(|i| half_u * ds * dk[i].abs() > PRODUCT_SHARE * caps.acc[i])
+    };
+    // Term 3 on one half: the curvature at its midpoint `q` against the chord of its end
+    // values, at the sample's share of the arc length (the parameter is not proportional
+    // to it; chords measure it within the turn bound).
+    let bent = |l: &Sample, r: &Sample, q: &Sample| {
+        let kref = l.2.norm().max(r.2.norm()).max(q.2.norm()).max(k_floor);
+        let lim = MAX_CURVATURE_BEND * kref + 1e-12;
+        let (a, b) = (l.3.dist(q.3), q.3.dist(r.3));
+        let f = if a + b > 0.0 { a / (a + b) } else { 0.5 };
+        (q.2 - (l.2 * (1.0 - f) + r.2 * f)).norm() > lim
+    };
+    let mut params: Vec<Sample> = Vec::with_capacity(2 * n0 + 1);
     params.push(sample(0.0));
     // Pending right ends, with the interval's midpoint sample when already known.
     let mut stack: Vec<(Sample, Option<Sample>)> = (1..=n0)
@@ -691,46 +732,18 @@ fn refine(
     while let Some(&(right, known_mid)) = stack.last() {
         let left = *params.last().expect("non-empty");
         let (t0, t1) = (left.0, right.0);
-        let can_split =
-            split && params.len() + stack.len() < MAX_CURVE_INTERVALS && t1 - t0 > MIN_PARAM_STEP;
-        if !can_split {
-            params.push(right);
-            stack.pop();
-            continue;
-        }
         let mid = known_mid.unwrap_or_else(|| sample(0.5 * (t0 + t1)));
-        let mut bad = left.1.dot(right.1) < cos_max_turn_at(left.1, caps);
-        if !bad {
-            // Term 2: |u| ds |dK_i| / 2 <= share A_i (ds from the chord, a lower bound of
-            // the arc that is within 1e-4 of it at the turn bound).
-            let ds = left.3.dist(right.3);
-            let dk = right.2 - left.2;
-            let half_u = 0.5 * u_bound(left.1, caps);
-            bad = (0..3).any(|i| half_u * ds * dk[i].abs() > PRODUCT_SHARE * caps.acc[i]);
-        }
+        let can_split = split
+            && params.len() / 2 + stack.len() < MAX_CURVE_INTERVALS
+            && t1 - t0 > MIN_PARAM_STEP;
+        let mut bad = false;
         let (mut q1, mut q3) = (None, None);
-        if !bad {
-            // Term 3: the curvature at the quarter points and the midpoint against the
-            // chord of the end values, at the sample's share of the arc length (the
-            // parameter is not proportional to it; chords measure it within the turn
-            // bound).
-            let kref = left
-                .2
-                .norm()
-                .max(right.2.norm())
-                .max(mid.2.norm())
-                .max(k_floor);
-            let lim = MAX_CURVATURE_BEND * kref + 1e-12;
-            let off = |q: &Sample| {
-                let (a, b) = (left.3.dist(q.3), q.3.dist(right.3));
-                let f = if a + b > 0.0 { a / (a + b) } else { 0.5 };
-                (q.2 - (left.2 * (1.0 - f) + right.2 * f)).norm() > lim
-            };
-            bad = off(&mid);
+        if can_split {
+            bad = turn_or_product(&left, &mid) || turn_or_product(&mid, &right);
             if !bad {
                 let a = sample(t0 + 0.25 * (t1 - t0));
                 let b = sample(t0 + 0.75 * (t1 - t0));
-                bad = off(&a) || off(&b);
+                bad = bent(&left, &mid, &a) || bent(&mid, &right, &b);
                 (q1, q3) = (Some(a), Some(b));
             }
         }
@@ -740,6 +753,7 @@ fn refine(
             stack.last_mut().expect("non-empty").1 = q3;
             stack.push((mid, q1));
         } else {
+            params.push(mid);
             params.push(right);
             stack.pop();
         }
@@ -800,6 +814,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     k0: Vec3::ZERO,
                     t1: t,
                     k1: Vec3::ZERO,
+                    mid: None,
                 };
                 let Some(j) = caps.jerk else {
                     return (cap, vec![(iv, cap)]);
@@ -820,12 +835,13 @@ impl<'p, 'a> GridGen<'p, 'a> {
             }
             seg => {
                 let sp = spans(seg);
-                // Arcs and helices: uniform steps of `arc_step` of sweep (module doc).
+                // Arcs and helices: uniform steps of `arc_step` of sweep per half interval
+                // (module doc).
                 let arc_steps = match seg {
-                    Segment::Arc(a) => Some((a.sweep / self.arc_step).ceil() as usize),
+                    Segment::Arc(a) => Some((0.5 * a.sweep / self.arc_step).ceil() as usize),
                     _ => None,
                 };
-                let n0 = ((m.len / MAX_CURVE_DS_MM).ceil() as usize)
+                let n0 = ((0.5 * m.len / MAX_CURVE_DS_MM).ceil() as usize)
                     .max(MIN_CURVE_INTERVALS * sp)
                     .max(arc_steps.unwrap_or(0))
                     .min(MAX_CURVE_INTERVALS);
@@ -838,34 +854,58 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 };
                 let first = (params[0].1, params[0].2);
                 let mut start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);
+                // Trapezoid mode imposes the rows at the midpoints too; jerk mode's caps
+                // live at grid points, so there every half is an interval of its own.
+                let with_mid = caps.jerk.is_none();
                 let mut out: Vec<(Interval, f64)> = Vec::with_capacity(params.len());
                 let mut s_acc = 0.0;
-                let last = params.len() - 1;
-                for (i, w) in params.windows(2).enumerate() {
-                    let ((_, t0, k0, p0), (_, t1, k1, p1)) = (w[0], w[1]);
-                    let ds = if i + 1 == last {
-                        (m.len - s_acc).max(0.0)
-                    } else {
-                        arc_from_chord(p0.dist(p1), t0.dot(t1))
-                    };
-                    s_acc += ds;
-                    let cap = point_cap_x(t1, k1, m.vcap_mm_s, caps);
+                let n = params.len() / 2;
+                let piece = |a: &Sample, b: &Sample| arc_from_chord(a.3.dist(b.3), a.1.dot(b.1));
+                let push = |out: &mut Vec<(Interval, f64)>,
+                            ds: f64,
+                            a: &Sample,
+                            b: &Sample,
+                            mid: Option<IntervalMid>| {
+                    let cap = point_cap_x(b.1, b.2, m.vcap_mm_s, caps);
                     if ds > 0.0 {
-                        out.push((
-                            Interval {
-                                ds,
-                                straight: false,
-                                u_line: 0.0,
-                                x_inside: 0.0,
-                                t0,
-                                k0,
-                                t1,
-                                k1,
-                            },
-                            cap,
-                        ));
+                        let iv = Interval {
+                            ds,
+                            straight: false,
+                            u_line: 0.0,
+                            x_inside: 0.0,
+                            t0: a.1,
+                            k0: a.2,
+                            t1: b.1,
+                            k1: b.2,
+                            mid,
+                        };
+                        out.push((iv, cap));
                     } else if let Some(last) = out.last_mut() {
                         last.1 = last.1.min(cap);
+                    }
+                };
+                for j in 0..n {
+                    let (a, q, b) = (&params[2 * j], &params[2 * j + 1], &params[2 * j + 2]);
+                    let (d1, d2) = (piece(a, q), piece(q, b));
+                    // The move's last interval takes the remainder of its exact length.
+                    let ds = if j + 1 == n {
+                        (m.len - s_acc).max(0.0)
+                    } else {
+                        d1 + d2
+                    };
+                    s_acc += ds;
+                    let f = if d1 + d2 > 0.0 { d1 / (d1 + d2) } else { 0.5 };
+                    if with_mid {
+                        let mid = IntervalMid {
+                            f,
+                            t: q.1,
+                            k: q.2,
+                            x_cap: point_cap_x(q.1, q.2, m.vcap_mm_s, caps),
+                        };
+                        push(&mut out, ds, a, b, Some(mid));
+                    } else {
+                        push(&mut out, ds * f, a, q, None);
+                        push(&mut out, ds * (1.0 - f), q, b, None);
                     }
                 }
                 if let (Some(v), false) = (caps.vaxis, out.is_empty()) {

@@ -110,6 +110,10 @@ pub fn line_acc(t: Vec3, caps: &Caps) -> f64 {
     u
 }
 
+/// Most rows of one interval: two per axis at each of the start, end and midpoint, and
+/// the midpoint's speed cap.
+const MAX_ROWS: usize = 19;
+
 /// One grid interval of length `ds` with the geometry at its two ends.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Interval {
@@ -131,11 +135,34 @@ pub struct Interval {
     pub t1: Vec3,
     /// Curvature vector at the end (1/mm).
     pub k1: Vec3,
+    /// Geometry at an interior point of a curved interval where the axis limits are
+    /// imposed as well (see [`IntervalMid`]); `None` for straight intervals and in jerk
+    /// mode.
+    pub mid: Option<IntervalMid>,
 }
 
-/// Linear constraints `a p + b q <= c` in `p = x_start`, `q = x_end` (at most 4 per axis).
+/// An interior check point of a curved interval, at the share `f` of its arc length: the
+/// per-axis rows `|u T_i + x K_i| <= A_i` hold there too, with `x = (1 - f) x_start +
+/// f x_end` (linear in `s`), so they stay linear in `(x_start, x_end)`. Between the three
+/// checks the grid bounds what can happen on each half as it bounds whole intervals
+/// without one (see [`super::grid`]), so an interval with a midpoint can be twice as long.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntervalMid {
+    /// Share of the interval's arc length before the point, in (0, 1).
+    pub f: f64,
+    /// Unit tangent there.
+    pub t: Vec3,
+    /// Curvature vector there (1/mm).
+    pub k: Vec3,
+    /// The point's own cap on `x = v^2` ([`point_cap_x`]), imposed as the row
+    /// `(1 - f) x_start + f x_end <= x_cap`.
+    pub x_cap: f64,
+}
+
+/// Linear constraints `a p + b q <= c` in `p = x_start`, `q = x_end` (at most 6 per axis:
+/// start, end and midpoint; and the midpoint's speed cap).
 struct Rows {
-    r: [(f64, f64, f64); 12],
+    r: [(f64, f64, f64); MAX_ROWS],
     n: usize,
 }
 
@@ -143,7 +170,7 @@ impl Interval {
     fn rows(&self, caps: &Caps) -> Rows {
         let h = 2.0 * self.ds;
         let mut rows = Rows {
-            r: [(0.0, 0.0, 0.0); 12],
+            r: [(0.0, 0.0, 0.0); MAX_ROWS],
             n: 0,
         };
         let mut push = |a: f64, b: f64, c: f64| {
@@ -159,6 +186,11 @@ impl Interval {
             push(1.0, -1.0, h * j.u_max_mm_s2);
             return rows;
         }
+        if let Some(m) = &self.mid {
+            if m.x_cap.is_finite() {
+                push(1.0 - m.f, m.f, m.x_cap);
+            }
+        }
         for i in 0..3 {
             let ha = h * caps.acc[i];
             let (t0, k0, t1, k1) = (self.t0[i], self.k0[i], self.t1[i], self.k1[i]);
@@ -168,6 +200,13 @@ impl Interval {
             // End: |(q - p)/h t1 + q k1| <= A.
             push(-t1, t1 + h * k1, ha);
             push(t1, -t1 - h * k1, ha);
+            if let Some(m) = &self.mid {
+                // Midpoint: |(q - p)/h t + ((1 - f) p + f q) k| <= A.
+                let (tm, km) = (m.t[i], m.k[i]);
+                let (a, b) = (h * (1.0 - m.f) * km - tm, tm + h * m.f * km);
+                push(a, b, ha);
+                push(-a, -b, ha);
+            }
         }
         rows
     }
@@ -188,8 +227,8 @@ impl Interval {
         // Fourier-Motzkin elimination of q: upper bounds q <= al + be p, lower bounds
         // q >= ga + de p; the feasible p form an interval containing 0 (p = q = 0 needs
         // no acceleration), so the largest p is the least of the upper bounds on p.
-        let mut up = [(q_cap, 0.0); 13];
-        let mut lo = [(0.0, 0.0); 13];
+        let mut up = [(q_cap, 0.0); MAX_ROWS + 1];
+        let mut lo = [(0.0, 0.0); MAX_ROWS + 1];
         let (mut nu, mut nl) = (1usize, 1usize);
         let mut p_max = p_cap;
         for &(a, b, c) in &rows.r[..rows.n] {
@@ -293,6 +332,7 @@ mod tests {
             k0: Vec3::ZERO,
             t1: t,
             k1: Vec3::ZERO,
+            mid: None,
         };
         let lp = Interval {
             straight: false,
@@ -335,6 +375,7 @@ mod tests {
             k0,
             t1,
             k1,
+            mid: None,
         };
         let check = |p: f64, q: f64| {
             let u = (q - p) / (2.0 * iv.ds);

@@ -20,7 +20,8 @@
 //!   up to the diameter is within `delta`, so the cap becomes `2R/T`);
 //! * per-axis acceleration on every interval: `|u T_i + x K_i| <= A_i`, imposed exactly
 //!   (as linear constraints in `(x_k, x_{k+1})`) at *both* ends of the interval, with the
-//!   geometry of that side. For lines this is exact everywhere; inside arcs and curves the
+//!   geometry of that side, and at the midpoint of curved intervals (where `x` is the
+//!   linear mix of the two). For lines this is exact everywhere; inside arcs and curves the
 //!   grid is refined until what can happen between the checks (the tangent's turn, the
 //!   product of the linear `x` with the changing curvature, curvature bumps) stays within
 //!   a stated share of the limit, inside the planning reserve below.
