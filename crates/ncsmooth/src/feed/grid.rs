@@ -271,6 +271,43 @@ fn move_len(seg: &Segment) -> f64 {
     }
 }
 
+/// Most threads [`move_lens`] uses.
+pub const INDEX_THREADS: usize = 4;
+/// Fewest moves for which [`move_lens`] starts threads.
+const PARALLEL_MIN_MOVES: usize = 4096;
+
+/// [`move_len`] of every move of `path`, in order, on up to [`INDEX_THREADS`] threads (the
+/// adaptive quadrature of curved moves is most of the indexing time; each length is
+/// computed alone, so the result does not depend on the number of threads).
+fn move_lens(path: &Toolpath) -> Vec<f64> {
+    let segs: Vec<&Segment> = path
+        .blocks
+        .iter()
+        .filter_map(|b| match b {
+            Block::Move(m) => Some(&m.segment),
+            Block::Event(_) => None,
+        })
+        .collect();
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(INDEX_THREADS);
+    if threads < 2 || segs.len() < PARALLEL_MIN_MOVES {
+        return segs.iter().map(|s| move_len(s)).collect();
+    }
+    let chunk = segs.len().div_ceil(threads);
+    let mut out = vec![0.0; segs.len()];
+    std::thread::scope(|scope| {
+        for (o, s) in out.chunks_mut(chunk).zip(segs.chunks(chunk)) {
+            scope.spawn(move || {
+                for (o, s) in o.iter_mut().zip(s) {
+                    *o = move_len(s);
+                }
+            });
+        }
+    });
+    out
+}
+
 fn spans(seg: &Segment) -> usize {
     match seg {
         Segment::Nurbs(n) => {
@@ -372,6 +409,8 @@ impl<'a> PathIndex<'a> {
             .push(m);
             add_stop(pending, StopReason::Event, m.duration);
         };
+        let lens = move_lens(path);
+        let mut lens = lens.into_iter();
         for b in &path.blocks {
             match b {
                 Block::Event(e) => match e.kind {
@@ -401,7 +440,7 @@ impl<'a> PathIndex<'a> {
                     let extra_start = prog.or(m.extra).map(|v| machine(v, &offset));
                     let extra_end = m.extra.map(|v| machine(v, &offset));
                     prog = m.extra.or(prog);
-                    let len = move_len(&m.segment);
+                    let len = lens.next().expect("one length per move");
                     if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
                         // A zero-length move that changes the extra axes moves them alone.
                         if let (Some(a), Some(b)) = (extra_start, extra_end) {
