@@ -92,7 +92,8 @@ pub const ARCLEN_ACCURACY_MM: f64 = 1e-10;
 /// Share of the axis acceleration allowed for the bulge of `x K_i` inside an interval
 /// (term 2 of the module doc).
 pub const PRODUCT_SHARE: f64 = 0.004;
-/// Largest distance of the curvature vector at an interval's quarter points from the
+/// Largest distance of the curvature vector at the midpoints of an interval's halves from
+/// the
 /// chord of its end values, relative to the local curvature or the floor (term 3 of the
 /// module doc).
 pub const MAX_CURVATURE_BEND: f64 = 0.004;

@@ -403,4 +403,61 @@ mod tests {
             check(p.min(2000.0), q);
         }
     }
+
+    #[test]
+    fn midpoint_rows_hold_at_the_midpoint() {
+        // A radius-2 arc piece of 0.3 rad with its midpoint checked, and a midpoint speed
+        // cap below both end caps: every (p, q) the passes accept keeps the midpoint's
+        // axis accelerations and cap; without the midpoint a brute-force scan finds pairs
+        // that break them.
+        let c = caps();
+        let r = 2.0;
+        let geom = |a: f64| {
+            let t = Vec3::new(-a.sin(), a.cos(), 0.0);
+            let k = Vec3::new(-a.cos(), -a.sin(), 0.0) / r;
+            (t, k)
+        };
+        let (t0, k0) = geom(0.0);
+        let (tm, km) = geom(0.15);
+        let (t1, k1) = geom(0.3);
+        let x_cap = 400.0;
+        let with = Interval {
+            ds: r * 0.3,
+            straight: false,
+            u_line: 0.0,
+            x_inside: 0.0,
+            t0,
+            k0,
+            t1,
+            k1,
+            mid: Some(IntervalMid {
+                f: 0.5,
+                t: tm,
+                k: km,
+                x_cap,
+            }),
+        };
+        let mid_ok = |p: f64, q: f64, slack: f64| {
+            let u = (q - p) / (2.0 * with.ds);
+            let x = 0.5 * (p + q);
+            x <= x_cap * (1.0 + slack)
+                && (0..3).all(|i| (u * tm[i] + x * km[i]).abs() <= c.acc[i] * (1.0 + slack))
+        };
+        for q_cap in [0.0, 100.0, 300.0, 1000.0] {
+            let (p, _) = with.backward(1e9, q_cap, &c);
+            let q = with.forward(p, q_cap, &c);
+            assert!(mid_ok(p, q, 1e-9), "q_cap {q_cap}: ({p}, {q})");
+            for p0 in [0.0, 50.0, 200.0, 390.0] {
+                let q = with.forward(p0, 1e9, &c);
+                assert!(mid_ok(p0, q, 1e-9), "({p0}, {q})");
+            }
+        }
+        let without = Interval { mid: None, ..with };
+        let (p, _) = without.backward(1e9, 1e9, &c);
+        let q = without.forward(p, 1e9, &c);
+        assert!(
+            !mid_ok(p, q, 1e-6),
+            "the end rows alone already hold: ({p}, {q})"
+        );
+    }
 }
