@@ -32,6 +32,7 @@
 //! property test uses 6). Fewer than 3 decimals can make a reader reject arcs whose
 //! rounded radii differ by more than its tolerance.
 
+use ncsmooth::decimal::POW10_U64;
 use ncsmooth::geom::{Arc, Flatten, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Block, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
@@ -88,26 +89,8 @@ impl Default for WriteOptions {
 /// `decimals` is clamped to [`PRINT_DECIMALS_MAX`].
 pub fn push_fixed(s: &mut String, v: f64, decimals: usize) {
     let decimals = decimals.min(PRINT_DECIMALS_MAX);
-    const POW10: [u64; 16] = [
-        1,
-        10,
-        100,
-        1_000,
-        10_000,
-        100_000,
-        1_000_000,
-        10_000_000,
-        100_000_000,
-        1_000_000_000,
-        10_000_000_000,
-        100_000_000_000,
-        1_000_000_000_000,
-        10_000_000_000_000,
-        100_000_000_000_000,
-        1_000_000_000_000_000,
-    ];
-    if decimals < POW10.len() && v.is_finite() {
-        let p = POW10[decimals];
+    if decimals < POW10_U64.len() && v.is_finite() {
+        let p = POW10_U64[decimals];
         let x = (v * p as f64).round();
         if x.abs() < 9.0e15 {
             let r = x as i64;

@@ -7,6 +7,7 @@
 //! ([`feed`]) -> interpolate -> [`verify`] -> write.
 #![forbid(unsafe_code)]
 
+pub mod decimal;
 pub mod feed;
 pub mod geom;
 pub mod interp;

@@ -284,6 +284,31 @@ mod tests {
         }
     }
 
+    /// Unit tangent and curvature vector at angle `a` on the circle of radius `r` about
+    /// the origin in XY (counter-clockwise).
+    fn circle_frame(r: f64, a: f64) -> (Vec3, Vec3) {
+        let t = Vec3::new(-a.sin(), a.cos(), 0.0);
+        let k = Vec3::new(-a.cos(), -a.sin(), 0.0) / r;
+        (t, k)
+    }
+
+    /// The curved interval from angle `a0` to `a1` on that circle, without a midpoint.
+    fn circle_interval(r: f64, a0: f64, a1: f64) -> Interval {
+        let (t0, k0) = circle_frame(r, a0);
+        let (t1, k1) = circle_frame(r, a1);
+        Interval {
+            ds: r * (a1 - a0),
+            straight: false,
+            u_line: 0.0,
+            x_inside: 0.0,
+            t0,
+            k0,
+            t1,
+            k1,
+            mid: None,
+        }
+    }
+
     #[test]
     fn curvature_and_chord_caps() {
         // Circle of radius 10 in XY at the point (10, 0): tangent +Y, curvature -X / 10.
@@ -357,26 +382,8 @@ mod tests {
     fn arc_interval_respects_axis_acceleration() {
         // A short piece of a radius-5 circle; check every accepted (p, q) by brute force.
         let c = caps();
-        let r = 5.0;
-        let (a0, a1) = (0.0f64, 0.04f64);
-        let geom = |a: f64| {
-            let t = Vec3::new(-a.sin(), a.cos(), 0.0);
-            let k = Vec3::new(-a.cos(), -a.sin(), 0.0) / r;
-            (t, k)
-        };
-        let (t0, k0) = geom(a0);
-        let (t1, k1) = geom(a1);
-        let iv = Interval {
-            ds: r * (a1 - a0),
-            straight: false,
-            u_line: 0.0,
-            x_inside: 0.0,
-            t0,
-            k0,
-            t1,
-            k1,
-            mid: None,
-        };
+        let iv = circle_interval(5.0, 0.0, 0.04);
+        let (t0, k0, t1, k1) = (iv.t0, iv.k0, iv.t1, iv.k1);
         let check = |p: f64, q: f64| {
             let u = (q - p) / (2.0 * iv.ds);
             for (t, k, x) in [(t0, k0, p), (t1, k1, q)] {
@@ -408,34 +415,20 @@ mod tests {
     fn midpoint_rows_hold_at_the_midpoint() {
         // A radius-2 arc piece of 0.3 rad with its midpoint checked, and a midpoint speed
         // cap below both end caps: every (p, q) the passes accept keeps the midpoint's
-        // axis accelerations and cap; without the midpoint a brute-force scan finds pairs
-        // that break them.
+        // axis accelerations and cap; without the midpoint the passes accept a pair that
+        // breaks them.
         let c = caps();
         let r = 2.0;
-        let geom = |a: f64| {
-            let t = Vec3::new(-a.sin(), a.cos(), 0.0);
-            let k = Vec3::new(-a.cos(), -a.sin(), 0.0) / r;
-            (t, k)
-        };
-        let (t0, k0) = geom(0.0);
-        let (tm, km) = geom(0.15);
-        let (t1, k1) = geom(0.3);
+        let (tm, km) = circle_frame(r, 0.15);
         let x_cap = 400.0;
         let with = Interval {
-            ds: r * 0.3,
-            straight: false,
-            u_line: 0.0,
-            x_inside: 0.0,
-            t0,
-            k0,
-            t1,
-            k1,
             mid: Some(IntervalMid {
                 f: 0.5,
                 t: tm,
                 k: km,
                 x_cap,
             }),
+            ..circle_interval(r, 0.0, 0.3)
         };
         let mid_ok = |p: f64, q: f64, slack: f64| {
             let u = (q - p) / (2.0 * with.ds);

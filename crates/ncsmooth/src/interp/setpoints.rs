@@ -4,6 +4,7 @@
 //! as printed** (each printed number is parsed back), with the actual time column (so a
 //! non-uniform step is measured correctly).
 
+use crate::decimal::POW10_U64;
 use crate::geom::Vec3;
 use crate::path::{ExtraAxes, EXTRA_AXIS_NAMES};
 use serde::Serialize;
@@ -159,23 +160,6 @@ pub struct SetpointWriter<W: Write> {
 
 /// Largest magnitude printed through the integer fast path of [`put`] (units of 1e-9).
 const FAST_LIMIT: f64 = 9.0e15;
-/// Powers of ten for the fixed-point formatting.
-const SCALE: [f64; 10] = [1.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
-
-/// Powers of ten as integers, for splitting fixed-point values.
-const POW10_U64: [u64; 10] = [
-    1,
-    10,
-    100,
-    1_000,
-    10_000,
-    100_000,
-    1_000_000,
-    10_000_000,
-    100_000_000,
-    1_000_000_000,
-];
-
 /// The decimal digit pairs "00" to "99".
 const DIGIT_PAIRS: [u8; 200] = {
     let mut t = [0u8; 200];
@@ -219,7 +203,7 @@ fn digits_rev(buf: &mut [u8], end: usize, mut u: u64, min_digits: usize) -> usiz
 /// the correctly rounded double of the printed text (both operands are exact), i.e. what
 /// parsing the text back would give.
 fn put(line: &mut Vec<u8>, v: f64, decimals: usize) -> f64 {
-    let scale = SCALE[decimals];
+    let scale = POW10_U64[decimals] as f64;
     let r = (v * scale).round();
     if r.is_nan() || r.abs() >= FAST_LIMIT {
         let text = format!("{v:.decimals$}");
@@ -390,7 +374,7 @@ mod tests {
                 let got = put(&mut a, v, decimals);
                 let a = String::from_utf8(a).unwrap();
                 let b = format!("{v:.decimals$}");
-                let scaled = v * SCALE[decimals];
+                let scaled = v * POW10_U64[decimals] as f64;
                 let near_tie = (scaled.abs().fract() - 0.5).abs() < 1e-6;
                 if !near_tie {
                     let b = if b.starts_with("-") && b.trim_matches(['-', '0', '.']).is_empty() {
