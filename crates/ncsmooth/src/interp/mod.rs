@@ -213,11 +213,7 @@ impl InterpStats {
 }
 
 fn gl5_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
-    match seg {
-        // The spline's weights once, not at every node.
-        Segment::Trig(c) => gl5(c.deriv_fn(), a, b),
-        _ => gl5(|t| seg.deriv(t), a, b),
-    }
+    gauss_arclen(&GL5, seg, a, b)
 }
 
 /// Gauss-Legendre 3-point nodes on [-1, 1] and weights.
@@ -236,27 +232,26 @@ const CORRECTION_PIECE_SHARE: f64 = 0.01;
 /// Signed arc length from `a` to `b` (negative when `b < a`) by 3-point Gauss-Legendre,
 /// for the short pieces of an arc-length correction.
 fn gl3_signed_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
-    let h = 0.5 * (b - a);
-    let m = 0.5 * (a + b);
-    let sum: f64 = match seg {
-        Segment::Trig(c) => {
-            let d = c.deriv_fn();
-            GL3.iter().map(|&(x, w)| w * d(m + h * x).norm()).sum()
-        }
-        _ => GL3
-            .iter()
-            .map(|&(x, w)| w * seg.deriv(m + h * x).norm())
-            .sum(),
-    };
-    sum * h
+    gauss_arclen(&GL3, seg, a, b)
 }
 
-/// 5-point Gauss-Legendre integral of `|d(t)|` over `[a, b]`.
+/// Gauss-Legendre integral of `|P'|` over `[a, b]` with `nodes` (signed: negative when
+/// `b < a`).
+fn gauss_arclen(nodes: &[(f64, f64)], seg: &Segment, a: f64, b: f64) -> f64 {
+    match seg {
+        // The spline's weights once, not at every node.
+        Segment::Trig(c) => gauss(nodes, c.deriv_fn(), a, b),
+        _ => gauss(nodes, |t| seg.deriv(t), a, b),
+    }
+}
+
+/// Gauss-Legendre integral of `|d(t)|` over `[a, b]` with `nodes` on [-1, 1].
 #[inline]
-fn gl5(d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
+fn gauss(nodes: &[(f64, f64)], d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
     let h = 0.5 * (b - a);
     let m = 0.5 * (a + b);
-    GL5.iter()
+    nodes
+        .iter()
         .map(|&(x, w)| w * d(m + h * x).norm())
         .sum::<f64>()
         * h
