@@ -159,24 +159,16 @@ pub struct IntervalMid {
     pub x_cap: f64,
 }
 
-/// Linear constraints `a p + b q <= c` in `p = x_start`, `q = x_end` (at most 6 per axis:
-/// start, end and midpoint; and the midpoint's speed cap).
-struct Rows {
-    r: [(f64, f64, f64); MAX_ROWS],
-    n: usize,
-}
-
 impl Interval {
-    fn rows(&self, caps: &Caps) -> Rows {
+    /// Calls `row(a, b, c)` for each linear constraint `a p + b q <= c` in `p = x_start`,
+    /// `q = x_end` (at most [`MAX_ROWS`]: two per axis at the start, end and midpoint,
+    /// and the midpoint's speed cap), without storing them.
+    #[inline]
+    fn each_row(&self, caps: &Caps, mut row: impl FnMut(f64, f64, f64)) {
         let h = 2.0 * self.ds;
-        let mut rows = Rows {
-            r: [(0.0, 0.0, 0.0); MAX_ROWS],
-            n: 0,
-        };
         let mut push = |a: f64, b: f64, c: f64| {
             if a.abs() > NEGLIGIBLE || b.abs() > NEGLIGIBLE {
-                rows.r[rows.n] = (a, b, c);
-                rows.n += 1;
+                row(a, b, c);
             }
         };
         if let Some(j) = caps.jerk {
@@ -184,7 +176,7 @@ impl Interval {
             // (the axes' share of the curvature term is a speed cap; see `super::jerk`).
             push(-1.0, 1.0, h * j.u_max_mm_s2);
             push(1.0, -1.0, h * j.u_max_mm_s2);
-            return rows;
+            return;
         }
         if let Some(m) = &self.mid {
             if m.x_cap.is_finite() {
@@ -208,7 +200,6 @@ impl Interval {
                 push(-a, -b, ha);
             }
         }
-        rows
     }
 
     /// Backward step: the largest `p <= p_cap` from which some `q` in `[0, q_cap]` is
@@ -223,7 +214,6 @@ impl Interval {
                 (p, false)
             };
         }
-        let rows = self.rows(caps);
         // Fourier-Motzkin elimination of q: upper bounds q <= al + be p, lower bounds
         // q >= ga + de p; the feasible p form an interval containing 0 (p = q = 0 needs
         // no acceleration), so the largest p is the least of the upper bounds on p.
@@ -231,7 +221,7 @@ impl Interval {
         let mut lo = [(0.0, 0.0); MAX_ROWS + 1];
         let (mut nu, mut nl) = (1usize, 1usize);
         let mut p_max = p_cap;
-        for &(a, b, c) in &rows.r[..rows.n] {
+        self.each_row(caps, |a, b, c| {
             if b > NEGLIGIBLE {
                 up[nu] = (c / b, -a / b);
                 nu += 1;
@@ -241,7 +231,7 @@ impl Interval {
             } else if a > NEGLIGIBLE {
                 p_max = p_max.min(c / a);
             }
-        }
+        });
         for &(al, be) in &up[..nu] {
             for &(ga, de) in &lo[..nl] {
                 let slope = be - de;
@@ -259,13 +249,12 @@ impl Interval {
         if self.straight {
             return q_cap.min(p + 2.0 * self.u_line * self.ds).max(0.0);
         }
-        let rows = self.rows(caps);
         let mut q = q_cap;
-        for &(a, b, c) in &rows.r[..rows.n] {
+        self.each_row(caps, |a, b, c| {
             if b > NEGLIGIBLE {
                 q = q.min((c - a * p) / b);
             }
-        }
+        });
         q.max(0.0)
     }
 }
