@@ -1,6 +1,12 @@
 //! Bidirectional look-ahead over bounded windows of the planning grid (see the
 //! [`crate::feed`] doc for why a committed prefix is final), producing the speed profile
 //! as a stream of constant-acceleration pieces ([`ProfilePiece`]) and stops.
+//!
+//! On programs of at least [`GRID_THREAD_MIN_MOVES`] moves (and more than one core) the
+//! grid of the moves ahead is computed on a second thread ([`GridGen::produce`]) while
+//! this one runs the passes: each move's grid depends on that move alone, so the plan is
+//! the same bit for bit (tested), and the producer runs at most
+//! [`super::grid::GRID_QUEUE_BATCHES`] batches ahead.
 
 use super::grid::{GridGen, GridPoint, PathIndex};
 use super::limits::Interval;
@@ -220,10 +226,35 @@ fn pieces(iv: &Interval, s0: f64, p: f64, q: f64, out: &mut Vec<ProfilePiece>) {
 pub fn plan_stream(
     index: &PathIndex<'_>,
     opts: &PlanOptions,
+    sink: impl FnMut(PlanEvent),
+) -> PlanStats {
+    let mut gen = GridGen::new(index, opts);
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if threads < 2 || index.moves.len() < GRID_THREAD_MIN_MOVES {
+        return plan_with(&mut gen, index, opts, sink);
+    }
+    // The grid of the moves ahead is computed on a second thread while this one runs the
+    // passes (the same grid: each move's is computed alone, in order).
+    std::thread::scope(|scope| {
+        let producer = GridGen::new(index, opts);
+        let (tx, rx) = std::sync::mpsc::sync_channel(super::grid::GRID_QUEUE_BATCHES);
+        scope.spawn(move || producer.produce(tx));
+        gen.take_from(rx);
+        plan_with(&mut gen, index, opts, sink)
+    })
+}
+
+/// Fewest moves for which [`plan_stream`] computes the grid on a thread of its own.
+pub const GRID_THREAD_MIN_MOVES: usize = 4096;
+
+/// [`plan_stream`] with the grid from `gen`.
+fn plan_with(
+    gen: &mut GridGen<'_, '_>,
+    index: &PathIndex<'_>,
+    opts: &PlanOptions,
     mut sink: impl FnMut(PlanEvent),
 ) -> PlanStats {
     let mut stats = PlanStats::default();
-    let mut gen = GridGen::new(index, opts);
     let caps = *gen.caps();
     if let Some((reason, dwell_s)) = index.lead {
         stats.stops.add(reason);
@@ -458,5 +489,39 @@ mod tests {
         assert!(ev
             .iter()
             .any(|e| matches!(e, PlanEvent::Stop { dwell_s, .. } if *dwell_s == 0.5)));
+    }
+
+    #[test]
+    fn grid_thread_plans_exactly_as_one_thread() {
+        // A zigzag of curved (Bezier) and straight moves, more than GRID_THREAD_MIN_MOVES:
+        // plan_stream computes the grid on a second thread; plan_with on this one. The
+        // events must be identical, bit for bit.
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        let mut p = Vec3::ZERO;
+        for i in 0..(GRID_THREAD_MIN_MOVES / 2 + 100) {
+            let a = i as f64 * 0.37;
+            let q = p + Vec3::new(0.3 + 0.1 * a.sin(), 0.2 * a.cos(), 0.0);
+            let c = p + Vec3::new(0.1, 0.15 * (a * 1.7).sin(), 0.0);
+            let d = q - Vec3::new(0.1, 0.0, 0.0);
+            tp.push_move(Move::feed(
+                crate::geom::CubicBez::new(p, c, d, q),
+                None,
+                i as u32,
+            ));
+            let r = q + (q - d) * 2.0;
+            tp.push_move(Move::feed(Line::new(q, r), None, i as u32));
+            p = r;
+        }
+        let opts = PlanOptions::default();
+        let idx = PathIndex::new(&tp, &opts);
+        assert!(idx.moves.len() >= GRID_THREAD_MIN_MOVES);
+        let mut threaded = Vec::new();
+        let st_a = plan_stream(&idx, &opts, |e| threaded.push(e));
+        let mut single = Vec::new();
+        let mut gen = GridGen::new(&idx, &opts);
+        let st_b = plan_with(&mut gen, &idx, &opts, |e| single.push(e));
+        assert_eq!(threaded, single);
+        assert_eq!(st_a.grid_points, st_b.grid_points);
+        assert!(threaded.len() > 2 * GRID_THREAD_MIN_MOVES);
     }
 }
