@@ -3,11 +3,14 @@
 //! `t = n T`), the [`Interpolator`] and the [`SetpointWriter`], and report what was
 //! measured. Nothing is collected: memory is bounded by the planner's window.
 //!
-//! Two threads: the calling thread indexes and plans and takes the samples; a second one
-//! ([`std::thread::scope`]) interpolates, formats, measures and writes them, fed in batches
+//! A pipeline of threads ([`std::thread::scope`]): the calling thread indexes and plans and
+//! takes the samples (the planner computes the grid of the moves ahead on a thread of its
+//! own on long programs, see [`crate::feed::plan_stream`]); a second thread interpolates
+//! them; a third formats, measures and writes the setpoints. Each hands the next batches
 //! of [`EMIT_BATCH`] through a channel of at most [`EMIT_QUEUE_BATCHES`] batches (so the
 //! memory stays bounded). The order of samples and rests is kept; the stage times of the
-//! two threads overlap, and `total_s` is the wall-clock time of the whole run.
+//! threads overlap, and `total_s` is the wall-clock time of the whole run. On two cores
+//! the work of all stages is shared by both, whichever stage is the longest.
 //!
 //! Time: every stop (corner, event, dwell, end) is held until the next period boundary,
 //! so stop points are setpoints and the last row, at the first period boundary at or after
@@ -26,8 +29,8 @@ use crate::feed::{
     plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
     StopReason,
 };
-use crate::geom::{ParamCurve, Vec3};
-use crate::path::{ExtraAxes, Toolpath, EXTRA_AXIS_NAMES};
+use crate::geom::ParamCurve;
+use crate::path::{Toolpath, EXTRA_AXIS_NAMES};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::time::Instant;
@@ -310,22 +313,20 @@ impl EmitQueue {
 /// Turns planned samples `(t, s, v)` into written setpoints: collected in batches,
 /// interpolated, given the extra-axis motion of the stop they rest at (if any), written;
 /// the first write error is kept and later writes skipped. Times each stage.
-struct Emitter<'i, 'p, 'a, W: Write> {
+struct Emitter<'i, 'p, 'a> {
     interp: Interpolator<'p, 'a>,
-    writer: SetpointWriter<W>,
+    /// To the writing thread; `None` once it hung up (a write failed).
+    out: Option<std::sync::mpsc::SyncSender<Vec<Setpoint>>>,
     rests: &'i [ExtraRest],
     /// Next rest to look at.
     next_rest: usize,
     /// The stop whose extra-axis motions apply: when they begin (s) and the rest.
     rest: Option<(f64, &'i ExtraRest)>,
     batch: Vec<(f64, f64, f64)>,
-    points: Vec<(Vec3, Option<ExtraAxes>)>,
-    err: Option<io::Error>,
     interp_s: f64,
-    write_s: f64,
 }
 
-impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
+impl<'i, 'p, 'a> Emitter<'i, 'p, 'a> {
     /// Handles the items of the planning thread until it hangs up or a write fails.
     fn run(&mut self, rx: std::sync::mpsc::Receiver<Vec<EmitItem>>) {
         for items in rx {
@@ -336,7 +337,7 @@ impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
                 }
             }
             self.flush();
-            if self.err.is_some() {
+            if self.out.is_none() {
                 return;
             }
         }
@@ -358,14 +359,14 @@ impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
         };
     }
 
-    /// Interpolates and writes the queued samples.
+    /// Interpolates the queued samples and sends them to the writing thread.
     fn flush(&mut self) {
         if self.batch.is_empty() {
             return;
         }
         let c0 = Instant::now();
-        self.points.clear();
-        for &(time, s, _) in &self.batch {
+        let mut points = Vec::with_capacity(self.batch.len());
+        for &(time, s, feed) in &self.batch {
             let (p, mut extra) = self.interp.advance(s);
             if let Some((begin, r)) = self.rest {
                 // At rest on the stop's point, after its extra-axis motions began.
@@ -373,25 +374,41 @@ impl<'i, 'p, 'a, W: Write> Emitter<'i, 'p, 'a, W> {
                     extra = Some(r.at(time - begin));
                 }
             }
-            self.points.push((p, extra));
-        }
-        let c1 = Instant::now();
-        for (&(time, _, v), &(p, extra)) in self.batch.iter().zip(self.points.iter()) {
-            if self.err.is_none() {
-                if let Err(e) = self.writer.push(&Setpoint {
-                    t: time,
-                    p,
-                    feed: v,
-                    extra,
-                }) {
-                    self.err = Some(e);
-                }
-            }
+            points.push(Setpoint {
+                t: time,
+                p,
+                feed,
+                extra,
+            });
         }
         self.batch.clear();
-        self.interp_s += (c1 - c0).as_secs_f64();
-        self.write_s += c1.elapsed().as_secs_f64();
+        self.interp_s += c0.elapsed().as_secs_f64();
+        if let Some(tx) = &self.out {
+            if tx.send(points).is_err() {
+                self.out = None;
+            }
+        }
     }
+}
+
+/// The writing thread: formats, measures and writes the setpoints it receives until the
+/// emitter hangs up or a write fails (then it hangs up, which stops the emitter). Returns
+/// the first error and the time spent.
+fn write_setpoints<W: Write>(
+    writer: &mut SetpointWriter<W>,
+    rx: std::sync::mpsc::Receiver<Vec<Setpoint>>,
+) -> (Option<io::Error>, f64) {
+    let mut write_s = 0.0;
+    for batch in rx {
+        let c0 = Instant::now();
+        for sp in &batch {
+            if let Err(e) = writer.push(sp) {
+                return (Some(e), write_s + c0.elapsed().as_secs_f64());
+            }
+        }
+        write_s += c0.elapsed().as_secs_f64();
+    }
+    (None, write_s)
 }
 
 /// Plans `path` under `popts`, interpolates it with `iopts` and writes the setpoints to
@@ -407,26 +424,28 @@ pub fn execute<W: Write + Send>(
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
     let period = popts.period_s;
+    let mut writer = SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?;
+    let (out_tx, out_rx) = std::sync::mpsc::sync_channel(EMIT_QUEUE_BATCHES);
     let mut emitter = Emitter {
         interp: Interpolator::new(&index, *iopts),
-        writer: SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?,
+        out: Some(out_tx),
         rests: &index.rests,
         next_rest: 0,
         rest: None,
         batch: Vec::with_capacity(EMIT_BATCH),
-        points: Vec::with_capacity(EMIT_BATCH),
-        err: None,
         interp_s: 0.0,
-        write_s: 0.0,
     };
     let (tx, rx) = std::sync::mpsc::sync_channel(EMIT_QUEUE_BATCHES);
     let mut em = EmitQueue {
         tx,
         batch: Vec::with_capacity(EMIT_BATCH),
     };
-    let (planning, em) = std::thread::scope(|scope| {
+    let (planning, em, (err, write_s)) = std::thread::scope(|scope| {
+        let writing = scope.spawn(|| write_setpoints(&mut writer, out_rx));
         let worker = scope.spawn(move || {
             emitter.run(rx);
+            // Hang up so the writing thread ends.
+            emitter.out = None;
             emitter
         });
         let planning = plan_samples(&index, popts, &mut em);
@@ -435,15 +454,13 @@ pub fn execute<W: Write + Send>(
         let emitter = worker
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        (planning, emitter)
+        let written = writing
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (planning, emitter, written)
     });
     let Emitter {
-        interp,
-        writer,
-        err,
-        interp_s,
-        write_s,
-        ..
+        interp, interp_s, ..
     } = em;
     if let Some(e) = err {
         return Err(PlanError::Io(e));

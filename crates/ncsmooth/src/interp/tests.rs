@@ -591,3 +591,86 @@ fn extruder_moves_and_resets() {
         assert!((e.v_max_per_s - 30.0).abs() < 0.1, "{e:?}");
     }
 }
+
+/// A sink that fails once it has taken `room` bytes.
+struct FailingSink {
+    room: usize,
+}
+
+impl std::io::Write for FailingSink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if buf.len() > self.room {
+            return Err(std::io::Error::other("disk full"));
+        }
+        self.room -= buf.len();
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_failed_write_ends_the_run_with_its_error() {
+    // 200 mm at 50 mm/s: 4000+ setpoints, several batches; the sink fails after about
+    // 100 rows, mid-run. The writing thread stops, the emitter and the planner notice,
+    // and the error comes back (no hang, no panic).
+    let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(200.0, 0.0, 0.0)], None);
+    let res = execute(
+        &tp,
+        &PlanOptions::default(),
+        &InterpOptions::default(),
+        std::io::BufWriter::with_capacity(64, FailingSink { room: 5000 }),
+    );
+    match res {
+        Err(PlanError::Io(e)) => assert_eq!(e.to_string(), "disk full"),
+        other => panic!("expected the write error, got {:?}", other.map(|r| r.0)),
+    }
+}
+
+#[test]
+fn gauss_kronrod_rule_is_exact_through_degree_11() {
+    for k in 0..=11 {
+        let exact = if k % 2 == 1 {
+            0.0
+        } else {
+            2.0 / (k as f64 + 1.0)
+        };
+        let (kr, g) = GK7.iter().fold((0.0, 0.0), |(a, b), &(x, wk, wg)| {
+            let f = x.powi(k);
+            (a + wk * f, b + wg * f)
+        });
+        assert!(
+            (kr - exact).abs() < 1e-15,
+            "Kronrod, degree {k}: {kr} vs {exact}"
+        );
+        if k <= 5 {
+            assert!(
+                (g - exact).abs() < 1e-15,
+                "Gauss, degree {k}: {g} vs {exact}"
+            );
+        }
+    }
+}
+
+#[test]
+fn step_arclen_matches_adaptive_quadrature() {
+    // Steps of a tight cubic (a cusp-like bend and a zero-speed start) against adaptive
+    // quadrature to 1e-14 mm: within the step accuracy everywhere.
+    let c = Segment::CubicBez(CubicBez::new(
+        Vec3::ZERO,
+        Vec3::ZERO,
+        Vec3::new(1.0, 0.02, 0.0),
+        Vec3::new(0.0, 0.04, 0.0),
+    ));
+    let n = 400;
+    for i in 0..n {
+        let (a, b) = (i as f64 / n as f64, (i + 1) as f64 / n as f64);
+        let got = step_arclen(&c, a, b);
+        let want = arclen_adaptive(&c, a, b, 1e-14);
+        assert!(
+            (got - want).abs() <= 2.0 * STEP_ARCLEN_ACCURACY_MM,
+            "step {i}: {got} vs {want}"
+        );
+    }
+}
