@@ -27,8 +27,10 @@
 //! against 3086. [`InterpOptions::stop_on_either`] selects the common reading. With the
 //! arc-length correction (the default, below) all four stay at 0.991 x.
 //! After the step, `s_i` advances by the true arc length `int |P'|` over `[u_i, xi]`
-//! (7-point Gauss-Kronrod checked against its embedded 3-point Gauss rule, adaptive where
-//! they disagree by more than [`STEP_ARCLEN_ACCURACY_MM`]), so the setpoints follow the planned arc length even though the solve is on chords.
+//! (7-point Gauss-Kronrod checked against its embedded 3-point Gauss rule, then against
+//! its two halves, adaptive where those disagree by more than
+//! [`STEP_ARCLEN_ACCURACY_MM`]; see [`step_arclen`]), so the setpoints follow the planned
+//! arc length even though the solve is on chords.
 //!
 //! [`InterpMethod::Taylor1`] (eq. 19 alone) and [`InterpMethod::Taylor2`] (the usual
 //! second-order Taylor step `L/|P'| - L^2 (P'.P'') / (2 |P'|^4)`) are there for comparison.
@@ -259,7 +261,7 @@ fn gauss(nodes: &[(f64, f64)], d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
         * h
 }
 
-/// Arc length over one step: 7-point Gauss-Kronrod ([`GK7`]), checked against the
+/// Arc length over one step: 7-point Gauss-Kronrod (`GK7`), checked against the
 /// embedded 3-point Gauss rule. Where they disagree by more than
 /// [`STEP_ARCLEN_ACCURACY_MM`] (the 3-point rule is much the weaker) the Kronrod sum is
 /// checked against the sum over the two halves, and where those disagree too (a step
