@@ -643,7 +643,7 @@ pub struct GridPoint {
 /// the turn, [`MAX_TURN_DEG`], which the denominators allow for.
 pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {
     let turn = MAX_TURN_DEG.to_radians();
-    let mut u = 2.0 * 3f64.sqrt() * caps.acc.iter().copied().fold(0.0, f64::max);
+    let mut u = u_global(caps);
     for j in 0..3 {
         let tj = t[j].abs() - turn;
         if tj > NEGLIGIBLE {
@@ -663,7 +663,7 @@ fn u_global(caps: &Caps) -> f64 {
 /// at its global bound [`u_bound`] (the tangent of an arc turns).
 pub fn arc_step(caps: &Caps) -> f64 {
     let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
-    let u = 2.0 * 3f64.sqrt() * caps.acc.iter().copied().fold(0.0, f64::max) / a_min;
+    let u = u_global(caps) / a_min;
     let by_tangent = (8.0 * TANGENT_SHARE / u).sqrt();
     let by_product = (2.0 * PRODUCT_SHARE / u).sqrt();
     let by_bend = (8.0 * MAX_CURVATURE_BEND).sqrt();

@@ -283,7 +283,6 @@ fn plan_with(
     loop {
         let clock = Instant::now();
         let mut target = WINDOW_POINTS.max(pts.len() + 1);
-        let before = pts.len();
         let mut generated = 0;
         let (ended, commit) = loop {
             let len0 = pts.len();
@@ -324,7 +323,6 @@ fn plan_with(
             target *= 2;
             stats.window_growths += 1;
         };
-        let _ = before;
         stats.grid_points += generated;
         stats.max_window_points = stats.max_window_points.max(pts.len());
         stats.windows += 1;

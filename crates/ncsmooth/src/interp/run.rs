@@ -215,8 +215,8 @@ pub struct StageTimes {
     pub interpolate_s: f64,
     /// Formatting, writing and measuring the rows.
     pub write_s: f64,
-    /// The whole run, wall clock. Interpolation and writing run on a second thread while
-    /// the planner works, so the stages add up to more than this.
+    /// The whole run, wall clock. Interpolation and writing run on threads of their own
+    /// while the planner works, so the stages add up to more than this.
     pub total_s: f64,
 }
 
@@ -304,15 +304,16 @@ impl EmitQueue {
     fn flush(&mut self) {
         if !self.batch.is_empty() {
             let full = std::mem::replace(&mut self.batch, Vec::with_capacity(EMIT_BATCH));
-            // A closed channel means the emitter stopped on a write error, which it keeps.
+            // A closed channel means the emitter stopped after a write error, which the
+            // writing thread keeps.
             let _ = self.tx.send(full);
         }
     }
 }
 
-/// Turns planned samples `(t, s, v)` into written setpoints: collected in batches,
-/// interpolated, given the extra-axis motion of the stop they rest at (if any), written;
-/// the first write error is kept and later writes skipped. Times each stage.
+/// Turns planned samples `(t, s, v)` into setpoints: collected in batches, interpolated,
+/// given the extra-axis motion of the stop they rest at (if any), and sent to the writing
+/// thread ([`write_setpoints`]); stops when that thread hangs up. Times the interpolation.
 struct Emitter<'i, 'p, 'a> {
     interp: Interpolator<'p, 'a>,
     /// To the writing thread; `None` once it hung up (a write failed).
