@@ -72,8 +72,8 @@ use super::limits::{
 };
 use super::{PlanOptions, StopReason};
 use crate::geom::{
-    arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveCurvature, ParamCurveDeriv, Segment,
-    Vec3,
+    arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveCurvature, ParamCurveDeriv,
+    PreparedTrig, Segment, Vec3,
 };
 use crate::path::{Block, EventKind, ExtraAxes, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
@@ -264,6 +264,8 @@ fn move_len(seg: &Segment) -> f64 {
     match seg {
         Segment::Line(l) => l.length(),
         Segment::Arc(a) => a.length(),
+        // The spline's weights once, not at every node.
+        Segment::Trig(c) => arclen_adaptive(&PreparedTrig::new(c), 0.0, 1.0, ARCLEN_ACCURACY_MM),
         _ => {
             let mut s = 0.0;
             let n = spans(seg);
@@ -346,8 +348,10 @@ fn curvature_at(seg: &Segment, t: f64) -> Vec3 {
 /// Unit tangent, curvature vector and point at `t` (as [`tangent_at`], [`curvature_at`]
 /// and `eval`), from one evaluation of the point and its derivatives where the
 /// parametric speed does not vanish.
-fn geo_at(seg: &Segment, t: f64) -> (Vec3, Vec3, Vec3) {
-    let [p, d1, d2] = seg.ders(t);
+///
+/// `curve` is `seg` itself or an equivalent evaluator of it (a [`PreparedTrig`]).
+fn geo_at(seg: &Segment, curve: &impl ParamCurveDeriv, t: f64) -> (Vec3, Vec3, Vec3) {
+    let [p, d1, d2] = curve.ders(t);
     let (s1, s2) = (d1.norm_sq(), d2.norm_sq());
     if !(s1 > 1e-18 * s2.max(1e-300) && s1 > 0.0) || t <= 0.0 || t >= 1.0 {
         return (tangent_at(seg, t), curvature_at(seg, t), p);
@@ -969,7 +973,14 @@ impl<'p, 'a> GridGen<'p, 'a> {
                         let (p, tt, kk) = a.frame(t);
                         (tt, kk, p)
                     }),
-                    _ => refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| geo_at(seg, t)),
+                    // The spline's weights once per move, not at every sample.
+                    Segment::Trig(c) => {
+                        let prepared = PreparedTrig::new(c);
+                        refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| {
+                            geo_at(seg, &prepared, t)
+                        })
+                    }
+                    _ => refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| geo_at(seg, seg, t)),
                 };
                 let first = (params[0].1, params[0].2);
                 let mut start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);

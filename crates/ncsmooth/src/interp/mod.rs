@@ -70,7 +70,8 @@ pub use setpoints::{ExtraFdMeter, FdMeter, FdStats, Setpoint, SetpointWriter};
 
 use crate::feed::PathIndex;
 use crate::geom::{
-    arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveDeriv, Segment, Vec3,
+    arclen_adaptive, arclen_gk7, curvature_vec_from, ParamCurve, ParamCurveDeriv, PreparedTrig,
+    Segment, Vec3,
 };
 use crate::path::ExtraAxes;
 use serde::Serialize;
@@ -95,22 +96,6 @@ pub const ARC_CORRECTION_TOL_MM: f64 = 1e-9;
 const FALLBACK_ITERS: usize = 60;
 /// Accuracy (mm) of the arc-length fallback solve.
 const FALLBACK_ACCURACY_MM: f64 = 1e-12;
-
-/// Gauss-Kronrod 7-point rule on [-1, 1], extending the 3-point Gauss-Legendre rule
-/// ([`GL3`]): `(node, Kronrod weight, Gauss weight)`, the Gauss weight zero on the nodes
-/// the Kronrod rule adds. The Kronrod sum is exact for polynomials of degree 11, the
-/// Gauss one for degree 5; their difference bounds the error of the Kronrod sum with a
-/// wide margin. Nodes and weights from Kronrod's tables (checked by the tests: exact
-/// moments through degree 11).
-const GK7: [(f64, f64, f64); 7] = [
-    (0.0, 0.450_916_538_658_474_1, 8.0 / 9.0),
-    (-0.434_243_749_346_802_6, 0.401_397_414_775_962_2, 0.0),
-    (0.434_243_749_346_802_6, 0.401_397_414_775_962_2, 0.0),
-    (-0.774_596_669_241_483_4, 0.268_488_089_868_333_4, 5.0 / 9.0),
-    (0.774_596_669_241_483_4, 0.268_488_089_868_333_4, 5.0 / 9.0),
-    (-0.960_491_268_708_020_3, 0.104_656_226_026_467_27, 0.0),
-    (0.960_491_268_708_020_3, 0.104_656_226_026_467_27, 0.0),
-];
 
 /// How the next parameter is found.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -261,12 +246,10 @@ fn gauss(nodes: &[(f64, f64)], d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
         * h
 }
 
-/// Arc length over one step: 7-point Gauss-Kronrod (`GK7`), checked against the
-/// embedded 3-point Gauss rule. Where they disagree by more than
-/// [`STEP_ARCLEN_ACCURACY_MM`] (the 3-point rule is much the weaker) the Kronrod sum is
-/// checked against the sum over the two halves, and where those disagree too (a step
-/// across a tight bend or a zero-speed end) adaptive quadrature takes over. Seven
-/// evaluations of `P'` on almost every step, where the former check (5-point
+/// Arc length over one step: [`arclen_gk7`] at [`STEP_ARCLEN_ACCURACY_MM`] (7-point
+/// Gauss-Kronrod checked against its embedded 3-point Gauss rule, then against its two
+/// halves, adaptive where those disagree: a step across a tight bend or a zero-speed
+/// end). Seven evaluations of `P'` on almost every step, where the former check (5-point
 /// Gauss-Legendre against its two halves) took fifteen on all.
 pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
     // Lines and arcs (helices included) have constant parametric speed: exact.
@@ -275,38 +258,40 @@ pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
     }
     match seg {
         // The spline's weights once, not at every node.
-        Segment::Trig(c) => step_arclen_with(seg, c.deriv_fn(), a, b),
-        _ => step_arclen_with(seg, |t| seg.deriv(t), a, b),
+        Segment::Trig(c) => arclen_gk7(&PreparedTrig::new(c), a, b, STEP_ARCLEN_ACCURACY_MM),
+        _ => arclen_gk7(seg, a, b, STEP_ARCLEN_ACCURACY_MM),
     }
 }
 
-#[inline]
-fn step_arclen_with(seg: &Segment, d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
-    let (whole, gauss) = gauss_kronrod(&d, a, b);
-    if (whole - gauss).abs() <= STEP_ARCLEN_ACCURACY_MM {
-        return whole;
+/// A curve the interpolator steps on: a [`Segment`], or a [`PreparedTrig`] (a
+/// trigonometric spline with its weights computed once per move; same results).
+trait StepCurve: ParamCurveDeriv {
+    /// Arc length over one step, as [`step_arclen`].
+    fn step_arclen(&self, a: f64, b: f64) -> f64;
+    /// Signed 3-point Gauss-Legendre arc length, as [`gl3_signed_arclen`].
+    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64;
+}
+
+impl StepCurve for Segment {
+    #[inline]
+    fn step_arclen(&self, a: f64, b: f64) -> f64 {
+        step_arclen(self, a, b)
     }
-    let m = 0.5 * (a + b);
-    let halves = gauss_kronrod(&d, a, m).0 + gauss_kronrod(&d, m, b).0;
-    if (whole - halves).abs() <= STEP_ARCLEN_ACCURACY_MM {
-        halves
-    } else {
-        arclen_adaptive(seg, a, b, STEP_ARCLEN_ACCURACY_MM)
+    #[inline]
+    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64 {
+        gl3_signed_arclen(self, a, b)
     }
 }
 
-/// The 7-point Kronrod and embedded 3-point Gauss integrals of `|d(t)|` over `[a, b]`.
-#[inline]
-fn gauss_kronrod(d: &impl Fn(f64) -> Vec3, a: f64, b: f64) -> (f64, f64) {
-    let h = 0.5 * (b - a);
-    let m = 0.5 * (a + b);
-    let (mut k, mut g) = (0.0, 0.0);
-    for &(x, wk, wg) in &GK7 {
-        let f = d(m + h * x).norm();
-        k += wk * f;
-        g += wg * f;
+impl StepCurve for PreparedTrig {
+    #[inline]
+    fn step_arclen(&self, a: f64, b: f64) -> f64 {
+        arclen_gk7(self, a, b, STEP_ARCLEN_ACCURACY_MM)
     }
-    (k * h, g * h)
+    #[inline]
+    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64 {
+        gauss(&GL3, |t| self.deriv(t), a, b)
+    }
 }
 
 /// Walks the path of a [`PathIndex`] to planned arc lengths.
@@ -317,6 +302,8 @@ pub struct Interpolator<'p, 'a> {
     u: f64,
     s: f64,
     p: Vec3,
+    /// The current move prepared, when it is a trigonometric spline: `(move, prepared)`.
+    prepared: Option<(usize, PreparedTrig)>,
     /// Statistics so far.
     pub stats: InterpStats,
 }
@@ -335,6 +322,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             u: 0.0,
             s: 0.0,
             p,
+            prepared: None,
             stats: InterpStats::default(),
         }
     }
@@ -388,12 +376,24 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 self.p = p;
                 return (p, self.extra());
             }
-            self.step_curve(m.segment, len);
+            if let Segment::Trig(c) = m.segment {
+                let prepared = match self.prepared {
+                    Some((j, p)) if j == self.cur => p,
+                    _ => {
+                        let p = PreparedTrig::new(c);
+                        self.prepared = Some((self.cur, p));
+                        p
+                    }
+                };
+                self.step_curve(&prepared, len);
+            } else {
+                self.step_curve(m.segment, len);
+            }
             return (self.p, self.extra());
         }
     }
 
-    fn step_curve(&mut self, seg: &Segment, arc: f64) {
+    fn step_curve<C: StepCurve>(&mut self, seg: &C, arc: f64) {
         self.stats.curve_steps += 1;
         let (u0, p0) = (self.u, self.p);
         let [_, d1, d2] = seg.ders(u0);
@@ -485,7 +485,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             }
         }
         self.stats.record(eta, len, k);
-        let mut done = step_arclen(seg, u0, xi);
+        let mut done = seg.step_arclen(u0, xi);
         let miss = (done - arc).abs();
         self.stats.arc_miss_max_mm = self.stats.arc_miss_max_mm.max(miss);
         if arc > ETA_MIN_STEP_MM {
@@ -510,9 +510,9 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 // is integrated to rounding by 3-point Gauss-Legendre; a long one (a
                 // bisection) is measured again from the step's start.
                 done = if (xi - prev).abs() <= CORRECTION_PIECE_SHARE * (xi - u0).abs() {
-                    done + gl3_signed_arclen(seg, prev, xi)
+                    done + seg.gl3_signed_arclen(prev, xi)
                 } else {
-                    step_arclen(seg, u0, xi)
+                    seg.step_arclen(u0, xi)
                 };
                 let err = done - arc;
                 if err.abs() <= ARC_CORRECTION_TOL_MM * 0.5 || hi - lo < 1e-16 {
@@ -539,7 +539,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
 
 /// The parameter at which the arc length from `u0` equals `len` (Newton-bisection on
 /// `int |P'| - len`; never divides by a zero speed).
-fn solve_arclen(seg: &Segment, u0: f64, len: f64) -> f64 {
+fn solve_arclen<C: ParamCurveDeriv>(seg: &C, u0: f64, len: f64) -> f64 {
     let (mut lo, mut hi) = (u0, 1.0);
     let mut xi = 0.5 * (lo + hi);
     for _ in 0..FALLBACK_ITERS {

@@ -629,31 +629,6 @@ fn a_failed_write_ends_the_run_with_its_error() {
 }
 
 #[test]
-fn gauss_kronrod_rule_is_exact_through_degree_11() {
-    for k in 0..=11 {
-        let exact = if k % 2 == 1 {
-            0.0
-        } else {
-            2.0 / (k as f64 + 1.0)
-        };
-        let (kr, g) = GK7.iter().fold((0.0, 0.0), |(a, b), &(x, wk, wg)| {
-            let f = x.powi(k);
-            (a + wk * f, b + wg * f)
-        });
-        assert!(
-            (kr - exact).abs() < 1e-15,
-            "Kronrod, degree {k}: {kr} vs {exact}"
-        );
-        if k <= 5 {
-            assert!(
-                (g - exact).abs() < 1e-15,
-                "Gauss, degree {k}: {g} vs {exact}"
-            );
-        }
-    }
-}
-
-#[test]
 fn step_arclen_matches_adaptive_quadrature() {
     // Steps of a tight cubic (a cusp-like bend and a zero-speed start) against adaptive
     // quadrature to 1e-14 mm: within the step accuracy everywhere.
