@@ -11,6 +11,7 @@ pub mod decimal;
 pub mod feed;
 pub mod geom;
 pub mod interp;
+pub mod par;
 pub mod path;
 pub mod profiles;
 pub mod smooth;

@@ -34,7 +34,7 @@
 //!    `x |dK| <= ` that share of `A`. `x_env` bounds `x` on the whole move: the speed cap
 //!    `vcap^2`, and reachability: the move's uniform samples are grid points, so `x` is
 //!    within its point cap at each, and inside the move it changes by at most `2 U` per
-//!    mm (`U = 2 sqrt(3) max_i A_i`, the bound of [`u_bound`]), so
+//!    mm (`U = sqrt(sum_i A_i^2)`, the bound of [`u_bound`]), so
 //!    `x_env <= min_k cap_k + 2 U len`. On a short, tight transition that is far below
 //!    `vcap^2`, and the flanks, where the curvature rises from zero, need fewer octaves
 //!    of bisection (linuxcnc_stellabee1, `--method bspline`: 6.7 M grid points became
@@ -282,14 +282,12 @@ fn move_len(seg: &Segment) -> f64 {
     }
 }
 
-/// Most threads [`move_lens`] uses.
-pub const INDEX_THREADS: usize = 4;
 /// Fewest moves for which [`move_lens`] starts threads.
 const PARALLEL_MIN_MOVES: usize = 4096;
 
-/// [`move_len`] of every move of `path`, in order, on up to [`INDEX_THREADS`] threads (the
-/// adaptive quadrature of curved moves is most of the indexing time; each length is
-/// computed alone, so the result does not depend on the number of threads).
+/// [`move_len`] of every move of `path`, in order, on up to [`crate::par::MAX_THREADS`]
+/// threads (the adaptive quadrature of curved moves is most of the indexing time; each
+/// length is computed alone, so the result does not depend on the number of threads).
 fn move_lens(path: &Toolpath) -> Vec<f64> {
     let segs: Vec<&Segment> = path
         .blocks
@@ -299,24 +297,7 @@ fn move_lens(path: &Toolpath) -> Vec<f64> {
             Block::Event(_) => None,
         })
         .collect();
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(INDEX_THREADS);
-    if threads < 2 || segs.len() < PARALLEL_MIN_MOVES {
-        return segs.iter().map(|s| move_len(s)).collect();
-    }
-    let chunk = segs.len().div_ceil(threads);
-    let mut out = vec![0.0; segs.len()];
-    std::thread::scope(|scope| {
-        for (o, s) in out.chunks_mut(chunk).zip(segs.chunks(chunk)) {
-            scope.spawn(move || {
-                for (o, s) in o.iter_mut().zip(s) {
-                    *o = move_len(s);
-                }
-            });
-        }
-    });
-    out
+    crate::par::map(segs.len(), PARALLEL_MIN_MOVES, |i| move_len(segs[i]))
 }
 
 fn spans(seg: &Segment) -> usize {
@@ -640,27 +621,27 @@ pub struct GridPoint {
     pub stop: Option<(StopReason, f64)>,
 }
 
-/// Bound on the tangential acceleration `|u|` (mm/s^2) the end rows of a curved interval
-/// starting with unit tangent `t` can allow: every axis has `|u T_j| <= A_j + x |K_j| <=
-/// 2 A_j` (the curvature cap holds `x |K_j| <= A_j`), so `|u| <= min_j 2 A_j / |T_j|`,
-/// at most `2 sqrt(3) max_j A_j`. Inside the interval a tangent component moves by at most
-/// the turn, [`MAX_TURN_DEG`], which the denominators allow for.
+/// Bound on the tangential acceleration `|u|` (mm/s^2) the row at an end of a curved
+/// interval with unit tangent `t` can allow. The row holds `a_j = u T_j + x K_j` within
+/// `|a_j| <= A_j` for every axis, and the curvature vector is normal to the tangent
+/// (`T . K = 0`, `|T| = 1`), so `u = T . a` and `|u| <= sum_j |T_j| A_j`, whatever the
+/// speed and the curvature: `A_j` on a path along axis `j`, and never more than
+/// `|A| = sqrt(sum_j A_j^2)` ([`u_global`]). The bound is taken for any tangent within
+/// [`MAX_TURN_DEG`] of `t` (a change `e` of the unit tangent adds at most
+/// `|e| |A| <= turn |A|`).
 pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {
     let turn = MAX_TURN_DEG.to_radians();
-    let mut u = u_global(caps);
-    for j in 0..3 {
-        let tj = t[j].abs() - turn;
-        if tj > NEGLIGIBLE {
-            u = u.min(2.0 * caps.acc[j] / tj);
-        }
-    }
-    u
+    let a = caps.acc;
+    let along = t[0].abs() * a[0] + t[1].abs() * a[1] + t[2].abs() * a[2];
+    let global = u_global(caps);
+    (along + turn * global).min(global)
 }
 
 /// Bound on the tangential acceleration `|u|` (mm/s^2) on any curved interval: [`u_bound`]
-/// whatever the tangent, `2 sqrt(3) max_j A_j`.
+/// whatever the tangent, `|A| = sqrt(sum_j A_j^2)` (Cauchy-Schwarz on `T . a`).
 fn u_global(caps: &Caps) -> f64 {
-    2.0 * 3f64.sqrt() * caps.acc.iter().copied().fold(0.0, f64::max)
+    let a = caps.acc;
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
 /// Largest swept angle (radians) of an arc interval (see the module doc), with `|u|`

@@ -42,6 +42,9 @@ use crate::geom::{CubicBez, Line, ParamCurve, Segment, TrigSpline, Vec3};
 use crate::path::Move;
 use crate::verify::{deviation_segments, DEGENERATE_MM, GAP_TOL_MM};
 
+/// Fewest joints for which [`blend_arc_joints`] places blends on several threads.
+const PARALLEL_MIN_JOINTS: usize = 4096;
+
 /// Curve of the blends.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BlendCurve {
@@ -168,32 +171,28 @@ pub fn blend_arc_joints(
         return None;
     }
     let lens: Vec<Option<f64>> = moves.iter().map(|m| line_or_arc_len(&m.segment)).collect();
-    // placed[j]: the blend at the joint before move j.
-    let mut placed: Vec<Option<Placed>> = (0..=n).map(|_| None).collect();
-    let mut any = false;
-    for j in 1..n {
+    // placed[j]: the blend at the joint before move j. Each joint is placed alone (the
+    // trims are bounded by shares of each move), so they are placed in parallel.
+    let at_joint = |j: usize| -> Option<Placed> {
+        if j == 0 || j == n {
+            return None;
+        }
         let (a, b) = (&moves[j - 1].segment, &moves[j].segment);
         if !(matches!(a, Segment::Arc(_)) || matches!(b, Segment::Arc(_))) {
-            continue;
+            return None;
         }
-        let (Some(la), Some(lb)) = (lens[j - 1], lens[j]) else {
-            continue;
-        };
+        let (la, lb) = (lens[j - 1]?, lens[j]?);
         if la <= DEGENERATE_MM || lb <= DEGENERATE_MM || a.end().dist(b.start()) > GAP_TOL_MM {
-            continue;
+            return None;
         }
-        let Some(turn) = super::turn_angle_deg(a, b) else {
-            continue;
-        };
+        let turn = super::turn_angle_deg(a, b)?;
         if turn < straight_angle_deg || turn > MAX_BLEND_TURN_DEG {
-            continue;
+            return None;
         }
-        if let Some(p) = place(a, b, la, lb, turn.to_radians(), tol, curve) {
-            placed[j] = Some(p);
-            any = true;
-        }
-    }
-    if !any {
+        place(a, b, la, lb, turn.to_radians(), tol, curve)
+    };
+    let placed: Vec<Option<Placed>> = crate::par::map(n + 1, PARALLEL_MIN_JOINTS, at_joint);
+    if placed.iter().all(Option::is_none) {
         return None;
     }
     let mut pieces = Vec::with_capacity(n + 2 * placed.iter().flatten().count());
