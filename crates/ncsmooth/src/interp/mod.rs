@@ -266,6 +266,12 @@ pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
 /// A curve the interpolator steps on: a [`Segment`], or a [`PreparedTrig`] (a
 /// trigonometric spline with its weights computed once per move; same results).
 trait StepCurve: ParamCurveDeriv {
+    /// True when one evaluation of the point costs about as much as [`ParamCurveDeriv::ders`]
+    /// (a trigonometric spline: one `sin_cos` either way). The step then evaluates `ders`
+    /// at every point it tries and keeps the derivatives for the Newton iteration, the
+    /// arc-length correction and the next step's start, instead of evaluating the point and
+    /// each derivative apart: the same numbers, fewer `sin_cos`.
+    const DERS_ARE_CHEAP: bool;
     /// Arc length over one step, as [`step_arclen`].
     fn step_arclen(&self, a: f64, b: f64) -> f64;
     /// Signed 3-point Gauss-Legendre arc length, as [`gl3_signed_arclen`].
@@ -273,6 +279,7 @@ trait StepCurve: ParamCurveDeriv {
 }
 
 impl StepCurve for Segment {
+    const DERS_ARE_CHEAP: bool = false;
     #[inline]
     fn step_arclen(&self, a: f64, b: f64) -> f64 {
         step_arclen(self, a, b)
@@ -284,6 +291,7 @@ impl StepCurve for Segment {
 }
 
 impl StepCurve for PreparedTrig {
+    const DERS_ARE_CHEAP: bool = true;
     #[inline]
     fn step_arclen(&self, a: f64, b: f64) -> f64 {
         arclen_gk7(self, a, b, STEP_ARCLEN_ACCURACY_MM)
@@ -304,6 +312,9 @@ pub struct Interpolator<'p, 'a> {
     p: Vec3,
     /// The current move prepared, when it is a trigonometric spline: `(move, prepared)`.
     prepared: Option<(usize, PreparedTrig)>,
+    /// Point and derivatives at the current place, when the last step computed them
+    /// ([`StepCurve::DERS_ARE_CHEAP`]): `(move, parameter, ders)`.
+    here: Option<(usize, f64, [Vec3; 3])>,
     /// Statistics so far.
     pub stats: InterpStats,
 }
@@ -323,6 +334,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             s: 0.0,
             p,
             prepared: None,
+            here: None,
             stats: InterpStats::default(),
         }
     }
@@ -396,7 +408,19 @@ impl<'p, 'a> Interpolator<'p, 'a> {
     fn step_curve<C: StepCurve>(&mut self, seg: &C, arc: f64) {
         self.stats.curve_steps += 1;
         let (u0, p0) = (self.u, self.p);
-        let [_, d1, d2] = seg.ders(u0);
+        let [_, d1, d2] = match self.here.take() {
+            Some((j, u, ders)) if j == self.cur && u == u0 => ders,
+            _ => seg.ders(u0),
+        };
+        // Point (and, when they are cheap, derivatives) at a parameter the step tries.
+        let try_at = |xi: f64| -> (Vec3, Option<[Vec3; 3]>) {
+            if C::DERS_ARE_CHEAP {
+                let d = seg.ders(xi);
+                (d[0], Some(d))
+            } else {
+                (seg.eval(xi), None)
+            }
+        };
         // Chord of the planned arc length on the osculating circle (eq. 15's V T = chord,
         // made exact for circles).
         let kappa = curvature_vec_from(d1, d2).norm();
@@ -436,7 +460,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 xi = 0.5 * (lo + hi);
             }
         }
-        let mut p = seg.eval(xi);
+        let (mut p, mut at) = try_at(xi);
         let mut chord = p.dist(p0);
         let mut eta = 1.0 - chord / len;
         // Chord differences below this are rounding of the coordinates.
@@ -464,7 +488,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                     hi_known = true;
                 }
                 // F = L - |P - P0|, F' = -(P - P0).P' / |P - P0| (eqs. 17, 18).
-                let dp = seg.deriv(xi);
+                let dp = at.map_or_else(|| seg.deriv(xi), |d| d[1]);
                 let fprime = if chord > 0.0 {
                     -(p - p0).dot(dp) / chord
                 } else {
@@ -478,7 +502,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 } else {
                     (lo + (lo - u0)).min(hi)
                 };
-                p = seg.eval(xi);
+                (p, at) = try_at(xi);
                 chord = p.dist(p0);
                 eta = 1.0 - chord / len;
                 k += 1;
@@ -497,7 +521,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             self.stats.arc_corrections += 1;
             let (mut lo, mut hi) = if done > arc { (u0, xi) } else { (xi, 1.0) };
             for _ in 0..FALLBACK_ITERS {
-                let sp = seg.deriv(xi).norm();
+                let sp = at.take().map_or_else(|| seg.deriv(xi), |d| d[1]).norm();
                 let next = xi - (done - arc) / sp;
                 let prev = xi;
                 xi = if sp > 0.0 && next > lo && next < hi {
@@ -524,7 +548,10 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                     lo = xi;
                 }
             }
-            p = seg.eval(xi);
+            (p, at) = try_at(xi);
+        }
+        if let Some(ders) = at {
+            self.here = Some((self.cur, xi, ders));
         }
         self.s += done;
         self.u = xi;
