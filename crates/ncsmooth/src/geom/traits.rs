@@ -151,12 +151,12 @@ fn arclen_rec<C: ParamCurveDeriv + ?Sized>(
         + arclen_rec(c, m, b, right, 0.5 * accuracy, depth + 1)
 }
 
-/// Gauss-Kronrod 7-point rule on [-1, 1], extending the 3-point Gauss-Legendre rule
-/// (the one `crate::interp` uses for short pieces): `(node, Kronrod weight, Gauss weight)`, the Gauss weight zero on the nodes
-/// the Kronrod rule adds. The Kronrod sum is exact for polynomials of degree 11, the
-/// Gauss one for degree 5; their difference bounds the error of the Kronrod sum with a
-/// wide margin. Nodes and weights from Kronrod's tables (checked by the
-/// tests: exact moments through degree 11).
+/// Gauss-Kronrod 7-point rule on [-1, 1], extending the 3-point Gauss-Legendre rule:
+/// `(node, Kronrod weight, Gauss weight)`, the Gauss weight zero on the nodes the Kronrod
+/// rule adds. The Kronrod sum is exact for polynomials of degree 11, the Gauss one for
+/// degree 5; their difference bounds the error of the Kronrod sum with a wide margin.
+/// Nodes and weights from Kronrod's tables (checked by the tests: exact moments through
+/// degree 11).
 pub const GK7: [(f64, f64, f64); 7] = [
     (0.0, 0.450_916_538_658_474_1, 8.0 / 9.0),
     (-0.434_243_749_346_802_6, 0.401_397_414_775_962_2, 0.0),
