@@ -318,10 +318,21 @@ pub fn nearest_generic<C: ParamCurveDeriv + ?Sized>(c: &C, p: Vec3, accuracy: f6
     best
 }
 
+/// Test curve for arc-length rules: a tight cubic with a cusp-like bend and a zero-speed
+/// start.
+#[cfg(test)]
+pub(crate) fn tight_cubic() -> crate::geom::Segment {
+    crate::geom::Segment::CubicBez(crate::geom::CubicBez::new(
+        Vec3::ZERO,
+        Vec3::ZERO,
+        Vec3::new(1.0, 0.02, 0.0),
+        Vec3::new(0.0, 0.04, 0.0),
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::{CubicBez, Segment};
 
     #[test]
     fn gauss_kronrod_rule_is_exact_through_degree_11() {
@@ -352,12 +363,7 @@ mod tests {
     fn arclen_gk7_matches_adaptive_quadrature() {
         // A tight cubic (a cusp-like bend and a zero-speed start), whole and in pieces,
         // against adaptive quadrature to 1e-14 mm.
-        let c = Segment::CubicBez(CubicBez::new(
-            Vec3::ZERO,
-            Vec3::ZERO,
-            Vec3::new(1.0, 0.02, 0.0),
-            Vec3::new(0.0, 0.04, 0.0),
-        ));
+        let c = tight_cubic();
         for n in [1, 3, 40] {
             for i in 0..n {
                 let (a, b) = (i as f64 / n as f64, (i + 1) as f64 / n as f64);

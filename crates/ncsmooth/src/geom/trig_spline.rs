@@ -327,14 +327,6 @@ impl TrigSpline {
         self.q0 + combine(&self.weights(), &funcs(u), 6)
     }
 
-    /// The first derivative `dP/dt` as a function, the weights computed once (for
-    /// quadratures that evaluate it many times).
-    #[inline]
-    pub fn deriv_fn(&self) -> impl Fn(f64) -> Vec3 + '_ {
-        let w = self.weights();
-        move |t| self.deriv_w(&w, t)
-    }
-
     /// A bound on `|d^2 P / dt^2|` over `t in [ta, tb]`, by interval arithmetic on the
     /// basis terms (`S` and `C` are monotone on the window, every term is a polynomial in
     /// them).

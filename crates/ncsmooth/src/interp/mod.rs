@@ -229,7 +229,10 @@ fn gl3_signed_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
 fn gauss_arclen(nodes: &[(f64, f64)], seg: &Segment, a: f64, b: f64) -> f64 {
     match seg {
         // The spline's weights once, not at every node.
-        Segment::Trig(c) => gauss(nodes, c.deriv_fn(), a, b),
+        Segment::Trig(c) => {
+            let c = PreparedTrig::new(c);
+            gauss(nodes, |t| c.deriv(t), a, b)
+        }
         _ => gauss(nodes, |t| seg.deriv(t), a, b),
     }
 }

@@ -632,12 +632,7 @@ fn a_failed_write_ends_the_run_with_its_error() {
 fn step_arclen_matches_adaptive_quadrature() {
     // Steps of a tight cubic (a cusp-like bend and a zero-speed start) against adaptive
     // quadrature to 1e-14 mm: within the step accuracy everywhere.
-    let c = Segment::CubicBez(CubicBez::new(
-        Vec3::ZERO,
-        Vec3::ZERO,
-        Vec3::new(1.0, 0.02, 0.0),
-        Vec3::new(0.0, 0.04, 0.0),
-    ));
+    let c = crate::geom::tight_cubic();
     let n = 400;
     for i in 0..n {
         let (a, b) = (i as f64 / n as f64, (i + 1) as f64 / n as f64);
