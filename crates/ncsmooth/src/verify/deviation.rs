@@ -228,7 +228,7 @@ fn upper_bound(prim: &Prim, pc: &Piece, len: f64, prog: &[Prim]) -> f64 {
         PrimGeom::Arc(a) => {
             for h in [pc.h0, pc.h1] {
                 if let PrimGeom::Arc(qa) = &prog[h].geom {
-                    if let Some(m) = arc_piece_on_arc(a, pc.t0, pc.t1, qa) {
+                    if let Some(m) = arc_piece_on_arc(&a.arc, pc.t0, pc.t1, &qa.arc) {
                         ub = ub.min(pc.d0.max(pc.d1) + m);
                     }
                 }
