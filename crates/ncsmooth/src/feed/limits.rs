@@ -214,13 +214,20 @@ impl Interval {
                 (p, false)
             };
         }
-        // Fourier-Motzkin elimination of q: upper bounds q <= al + be p, lower bounds
-        // q >= ga + de p; the feasible p form an interval containing 0 (p = q = 0 needs
-        // no acceleration), so the largest p is the least of the upper bounds on p.
+        // Eliminating q: upper bounds q <= al + be p, lower bounds q >= ga + de p. The
+        // feasible p form an interval containing 0 (p = q = 0 needs no acceleration: every
+        // `c >= 0`), and its upper end is where the concave gap
+        // `g(p) = min(al + be p) - max(ga + de p)` falls to zero (Fourier-Motzkin: the
+        // least crossing of an upper and a lower bound, see `backward_pairwise`). Newton
+        // on `g` from the right: at a `p` where `g < 0` the binding upper and lower rows
+        // cross at or beyond the root (a concave function lies below its tangents), so the
+        // steps fall monotonically onto it, each moving to another pair of rows; a step
+        // that does not decrease `p` ends the search (rounding). Usually one or two steps,
+        // against the `nu nl` divisions of the pairwise elimination.
         let mut up = [(q_cap, 0.0); MAX_ROWS + 1];
         let mut lo = [(0.0, 0.0); MAX_ROWS + 1];
         let (mut nu, mut nl) = (1usize, 1usize);
-        let mut p_max = p_cap;
+        let mut p = p_cap;
         self.each_row(caps, |a, b, c| {
             if b > NEGLIGIBLE {
                 up[nu] = (c / b, -a / b);
@@ -229,18 +236,37 @@ impl Interval {
                 lo[nl] = (c / b, -a / b);
                 nl += 1;
             } else if a > NEGLIGIBLE {
-                p_max = p_max.min(c / a);
+                p = p.min(c / a);
             }
         });
-        for &(al, be) in &up[..nu] {
-            for &(ga, de) in &lo[..nl] {
-                let slope = be - de;
-                if slope < 0.0 {
-                    p_max = p_max.min((ga - al) / slope);
+        let (up, lo) = (&up[..nu], &lo[..nl]);
+        for _ in 0..nu * nl {
+            let (mut ui, mut u) = (0, f64::INFINITY);
+            for (i, &(al, be)) in up.iter().enumerate() {
+                let v = al + be * p;
+                if v < u {
+                    (ui, u) = (i, v);
                 }
             }
+            let (mut li, mut l) = (0, f64::NEG_INFINITY);
+            for (i, &(ga, de)) in lo.iter().enumerate() {
+                let v = ga + de * p;
+                if v > l {
+                    (li, l) = (i, v);
+                }
+            }
+            if u >= l {
+                break;
+            }
+            let ((al, be), (ga, de)) = (up[ui], lo[li]);
+            let slope = be - de;
+            let next = if slope < 0.0 { (ga - al) / slope } else { 0.0 };
+            if next >= p || next.is_nan() {
+                break;
+            }
+            p = next;
         }
-        let p = p_max.max(0.0);
+        let p = p.max(0.0);
         (p, p >= p_cap)
     }
 
@@ -262,6 +288,7 @@ impl Interval {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn caps() -> Caps {
         Caps {
@@ -331,6 +358,79 @@ mod tests {
         let a = 500.0 * 2f64.sqrt();
         assert!((x - a * 0.01 * s / (1.0 - s)).abs() < 1e-9);
         assert_eq!(junction_cap_x(Vec3::X, -Vec3::X, 0.01, &caps()), 0.0);
+    }
+
+    /// The backward step by pairwise Fourier-Motzkin elimination (every crossing of an
+    /// upper and a lower bound on `q`): the reference for [`Interval::backward`].
+    fn backward_pairwise(iv: &Interval, p_cap: f64, q_cap: f64, caps: &Caps) -> f64 {
+        let mut up = vec![(q_cap, 0.0)];
+        let mut lo = vec![(0.0, 0.0)];
+        let mut p_max = p_cap;
+        iv.each_row(caps, |a, b, c| {
+            if b > NEGLIGIBLE {
+                up.push((c / b, -a / b));
+            } else if b < -NEGLIGIBLE {
+                lo.push((c / b, -a / b));
+            } else if a > NEGLIGIBLE {
+                p_max = p_max.min(c / a);
+            }
+        });
+        for &(al, be) in &up {
+            for &(ga, de) in &lo {
+                let slope = be - de;
+                if slope < 0.0 {
+                    p_max = p_max.min((ga - al) / slope);
+                }
+            }
+        }
+        p_max.max(0.0)
+    }
+
+    proptest! {
+        /// The Newton search of the backward step finds the pairwise elimination's answer
+        /// on random curved intervals (tangents, curvatures, midpoints and caps), to the
+        /// last few bits.
+        #[test]
+        fn backward_is_the_pairwise_elimination(
+            a0 in 0.0f64..6.3, a1 in -0.2f64..0.2, am in 0.0f64..1.0,
+            k0 in proptest::array::uniform3(-50.0f64..50.0),
+            k1 in proptest::array::uniform3(-50.0f64..50.0),
+            km in proptest::array::uniform3(-50.0f64..50.0),
+            ds in 1e-4f64..1.0,
+            z in -0.5f64..0.5,
+            f in 0.05f64..0.95,
+            x_mid in prop_oneof![Just(f64::INFINITY), 0.0f64..3000.0],
+            with_mid in proptest::bool::ANY,
+            p_cap in prop_oneof![Just(1e9), 0.0f64..3000.0],
+            q_cap in prop_oneof![Just(0.0), 0.0f64..3000.0, Just(1e9)],
+            acc in proptest::array::uniform3(10.0f64..1000.0),
+        ) {
+            let dir = |a: f64| Vec3::new(a.cos(), a.sin(), z).normalized().unwrap();
+            let k = |v: [f64; 3], t: Vec3| {
+                let v = Vec3::new(v[0], v[1], v[2]);
+                v - t * t.dot(v)
+            };
+            let (t0, t1, tm) = (dir(a0), dir(a0 + a1), dir(a0 + am * a1));
+            let iv = Interval {
+                ds,
+                straight: false,
+                u_line: 0.0,
+                x_inside: 0.0,
+                t0,
+                k0: k(k0, t0),
+                t1,
+                k1: k(k1, t1),
+                mid: with_mid.then_some(IntervalMid { f, t: tm, k: k(km, tm), x_cap: x_mid }),
+            };
+            let c = Caps { acc, ..caps() };
+            let (p, free) = iv.backward(p_cap, q_cap, &c);
+            let reference = backward_pairwise(&iv, p_cap, q_cap, &c);
+            prop_assert!(
+                (p - reference).abs() <= 1e-12 * reference.max(1.0),
+                "{p} vs {reference}"
+            );
+            prop_assert_eq!(free, p >= p_cap);
+        }
     }
 
     #[test]
