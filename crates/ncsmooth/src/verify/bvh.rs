@@ -9,6 +9,11 @@ use crate::geom::{Aabb, Vec3};
 
 /// Primitives per leaf.
 const LEAF_SIZE: usize = 4;
+/// Depth of the query stack: a depth-first query holds at most one pending node per
+/// level plus the two children of the node it expands, and median splits keep the depth
+/// at `log2(n / LEAF_SIZE) + 1`, so this is ample for any primitive count an index can
+/// hold (`u32`). A fixed stack keeps queries free of allocation.
+const STACK_DEPTH: usize = 72;
 
 struct Node {
     bbox: Aabb,
@@ -52,10 +57,11 @@ impl Bvh {
         if self.nodes.is_empty() {
             return best;
         }
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
-        stack.push(0);
-        while let Some(ni) = stack.pop() {
-            let n = &self.nodes[ni as usize];
+        let mut stack = [0u32; STACK_DEPTH];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let n = &self.nodes[stack[top] as usize];
             if n.bbox.dist_sq(p) >= best.dist_sq {
                 continue;
             }
@@ -74,13 +80,10 @@ impl Bvh {
                 let dl = self.nodes[l as usize].bbox.dist_sq(p);
                 let dr = self.nodes[r as usize].bbox.dist_sq(p);
                 // Push the farther first so the nearer is explored first.
-                if dl < dr {
-                    stack.push(r);
-                    stack.push(l);
-                } else {
-                    stack.push(l);
-                    stack.push(r);
-                }
+                let (first, second) = if dl < dr { (r, l) } else { (l, r) };
+                stack[top] = first;
+                stack[top + 1] = second;
+                top += 2;
             }
         }
         best

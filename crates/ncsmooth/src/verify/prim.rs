@@ -65,7 +65,8 @@ impl PlanarArc {
         };
         let r = a.radius;
         if inside {
-            let rho = x.hypot(y);
+            // No overflow to guard against at machine coordinates (plain sqrt, not hypot).
+            let rho = (x * x + y * y).sqrt();
             let d = rho - r;
             return d * d + z * z;
         }
