@@ -68,7 +68,8 @@
 //! of their own; the report gives their measured speeds and accelerations.
 
 use super::limits::{
-    g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, Caps, Interval, IntervalMid, NEGLIGIBLE,
+    g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, point_cap_x_kappa, Caps, Interval,
+    IntervalMid, NEGLIGIBLE,
 };
 use super::{PlanOptions, StopReason};
 use crate::geom::{
@@ -630,11 +631,55 @@ pub struct GridPoint {
 /// [`MAX_TURN_DEG`] of `t` (a change `e` of the unit tangent adds at most
 /// `|e| |A| <= turn |A|`).
 pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {
-    let turn = MAX_TURN_DEG.to_radians();
-    let a = caps.acc;
-    let along = t[0].abs() * a[0] + t[1].abs() * a[1] + t[2].abs() * a[2];
-    let global = u_global(caps);
-    (along + turn * global).min(global)
+    TurnBounds::new(caps).u_bound(t)
+}
+
+/// What [`u_bound`] and [`TurnBounds::cos_max_turn_at`] take from the caps, computed once per
+/// generator rather than at every check (the same operations, so the same values).
+#[derive(Clone, Copy, Debug)]
+struct TurnBounds {
+    acc: [f64; 3],
+    /// Smallest axis acceleration.
+    a_min: f64,
+    /// [`u_global`].
+    global: f64,
+    /// `turn |A|` of [`u_bound`].
+    turn_allowance: f64,
+    /// Cosine of [`MAX_TURN_DEG`].
+    cos_max_turn: f64,
+}
+
+impl TurnBounds {
+    fn new(caps: &Caps) -> TurnBounds {
+        let global = u_global(caps);
+        TurnBounds {
+            acc: caps.acc,
+            a_min: caps.acc.iter().copied().fold(f64::INFINITY, f64::min),
+            global,
+            turn_allowance: MAX_TURN_DEG.to_radians() * global,
+            cos_max_turn: MAX_TURN_DEG.to_radians().cos(),
+        }
+    }
+
+    /// [`u_bound`].
+    #[inline]
+    fn u_bound(&self, t: Vec3) -> f64 {
+        let a = self.acc;
+        let along = t[0].abs() * a[0] + t[1].abs() * a[1] + t[2].abs() * a[2];
+        (along + self.turn_allowance).min(self.global)
+    }
+
+    /// Cosine of the largest tangent turn of a curve interval starting with unit tangent
+    /// `t`: term 1 of the module doc with the local [`u_bound`], the turn at most
+    /// [`MAX_TURN_DEG`]. An interval is within it when its end tangents' dot product is at
+    /// least this (no inverse trigonometry on the hot path).
+    #[inline]
+    fn cos_max_turn_at(&self, t: Vec3) -> f64 {
+        let u = self.u_bound(t) / self.a_min;
+        // 1 - cos(turn / 2) <= share / u: cos(turn / 2) >= c, so cos(turn) >= 2 c^2 - 1.
+        let c = (1.0 - TANGENT_SHARE / u).clamp(0.0, 1.0);
+        (2.0 * c * c - 1.0).max(self.cos_max_turn)
+    }
 }
 
 /// Bound on the tangential acceleration `|u|` (mm/s^2) on any curved interval: [`u_bound`]
@@ -656,18 +701,6 @@ pub fn arc_step(caps: &Caps) -> f64 {
         .min(by_product)
         .min(by_bend)
         .min(MAX_TURN_DEG.to_radians())
-}
-
-/// Cosine of the largest tangent turn of a curve interval starting with unit tangent `t`:
-/// term 1 of the module doc with the local [`u_bound`], the turn at most
-/// [`MAX_TURN_DEG`]. An interval is within it when its end tangents' dot product is at
-/// least this (no inverse trigonometry on the hot path).
-fn cos_max_turn_at(t: Vec3, caps: &Caps) -> f64 {
-    let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
-    let u = u_bound(t, caps) / a_min;
-    // 1 - cos(turn / 2) <= share / u: cos(turn / 2) >= c, so cos(turn) >= 2 c^2 - 1.
-    let c = (1.0 - TANGENT_SHARE / u).clamp(0.0, 1.0);
-    (2.0 * c * c - 1.0).max(MAX_TURN_DEG.to_radians().cos())
 }
 
 /// Cap on `x = v^2` from the per-axis velocity limits `v` over a whole curved interval: a
@@ -713,8 +746,9 @@ fn arc_from_chord(chord: f64, cos_turn: f64) -> f64 {
 /// Largest `sin^2(turn/2)` for which [`arc_from_chord`] uses its series.
 const ARC_SERIES_MAX_X2: f64 = 0.01;
 
-/// Geometry sample: parameter, unit tangent, curvature vector, point.
-type Sample = (f64, Vec3, Vec3, Vec3);
+/// Geometry sample: parameter, unit tangent, curvature vector, point, curvature (the
+/// norm of the curvature vector, used by several checks).
+type Sample = (f64, Vec3, Vec3, Vec3, f64);
 
 /// Grid samples of a curved move: `n0` uniform intervals, each taken as two halves
 /// around its parameter midpoint, bisected (when `split`) until both halves keep the
@@ -732,9 +766,10 @@ fn refine(
 ) -> Vec<Sample> {
     let sample = |t: f64| {
         let (tt, kk, p) = geo(t);
-        (t, tt, kk, p)
+        (t, tt, kk, p, kk.norm())
     };
-    let a_min = caps.acc.iter().copied().fold(f64::INFINITY, f64::min);
+    let bounds = TurnBounds::new(caps);
+    let a_min = bounds.a_min;
     let mut params: Vec<Sample> = Vec::with_capacity(2 * n0 + 1);
     params.push(sample(0.0));
     // Pending right ends, with the interval's midpoint sample when already known.
@@ -748,9 +783,9 @@ fn refine(
         .iter()
         .map(|(s, _)| s)
         .chain(params.iter())
-        .map(|s| point_cap_x(s.1, s.2, vcap_mm_s, caps))
+        .map(|s| point_cap_x_kappa(s.1, s.2, s.4, vcap_mm_s, caps))
         .fold(f64::INFINITY, f64::min)
-        + 2.0 * u_global(caps) * len_mm;
+        + 2.0 * bounds.global * len_mm;
     let x_env = (vcap_mm_s * vcap_mm_s).min(x_reach);
     let k_floor = if x_env > 0.0 && x_env.is_finite() {
         a_min / x_env
@@ -759,21 +794,21 @@ fn refine(
     };
     // Terms 1 and 2 on one half.
     let turn_or_product = |l: &Sample, r: &Sample| {
-        if l.1.dot(r.1) < cos_max_turn_at(l.1, caps) {
+        if l.1.dot(r.1) < bounds.cos_max_turn_at(l.1) {
             return true;
         }
         // Term 2: |u| ds |dK_i| / 2 <= share A_i (ds from the chord, a lower bound of the
         // arc that is within 1e-4 of it at the turn bound).
         let ds = l.3.dist(r.3);
         let dk = r.2 - l.2;
-        let half_u = 0.5 * u_bound(l.1, caps);
+        let half_u = 0.5 * bounds.u_bound(l.1);
         (0..3).any(|i| half_u * ds * dk[i].abs() > PRODUCT_SHARE * caps.acc[i])
     };
     // Term 3 on one half: the curvature at its midpoint `q` against the chord of its end
     // values, at the sample's share of the arc length (the parameter is not proportional
     // to it; chords measure it within the turn bound).
     let bent = |l: &Sample, r: &Sample, q: &Sample| {
-        let kref = l.2.norm().max(r.2.norm()).max(q.2.norm()).max(k_floor);
+        let kref = l.4.max(r.4).max(q.4).max(k_floor);
         let lim = MAX_CURVATURE_BEND * kref + 1e-12;
         let (a, b) = (l.3.dist(q.3), q.3.dist(r.3));
         let f = if a + b > 0.0 { a / (a + b) } else { 0.5 };
@@ -964,7 +999,8 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     _ => refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| geo_at(seg, seg, t)),
                 };
                 let first = (params[0].1, params[0].2);
-                let mut start_cap = point_cap_x(first.0, first.1, m.vcap_mm_s, caps);
+                let mut start_cap =
+                    point_cap_x_kappa(first.0, first.1, params[0].4, m.vcap_mm_s, caps);
                 // Trapezoid mode imposes the rows at the midpoints too; jerk mode's caps
                 // live at grid points, so there every half is an interval of its own.
                 let with_mid = caps.jerk.is_none();
@@ -977,7 +1013,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                             a: &Sample,
                             b: &Sample,
                             mid: Option<IntervalMid>| {
-                    let cap = point_cap_x(b.1, b.2, m.vcap_mm_s, caps);
+                    let cap = point_cap_x_kappa(b.1, b.2, b.4, m.vcap_mm_s, caps);
                     if ds > 0.0 {
                         let iv = Interval {
                             ds,
@@ -1011,7 +1047,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                             f,
                             t: q.1,
                             k: q.2,
-                            x_cap: point_cap_x(q.1, q.2, m.vcap_mm_s, caps),
+                            x_cap: point_cap_x_kappa(q.1, q.2, q.4, m.vcap_mm_s, caps),
                         };
                         push(&mut out, ds, a, b, Some(mid));
                     } else {

@@ -29,6 +29,12 @@ pub struct Caps {
 /// and speed cap `vcap` (mm/s): the feed, the per-axis velocity, the per-axis curvature
 /// limit `x |k_i| <= A_i` and the chord error of Wu eq. 21.
 pub fn point_cap_x(t: Vec3, k: Vec3, vcap: f64, caps: &Caps) -> f64 {
+    point_cap_x_kappa(t, k, k.norm(), vcap, caps)
+}
+
+/// [`point_cap_x`] with the curvature `kappa = |k|` already known.
+#[inline]
+pub fn point_cap_x_kappa(t: Vec3, k: Vec3, kappa: f64, vcap: f64, caps: &Caps) -> f64 {
     let mut x = vcap * vcap;
     for i in 0..3 {
         if let Some(v) = caps.vaxis {
@@ -42,7 +48,6 @@ pub fn point_cap_x(t: Vec3, k: Vec3, vcap: f64, caps: &Caps) -> f64 {
             x = x.min(caps.acc[i] / ki);
         }
     }
-    let kappa = k.norm();
     if kappa > NEGLIGIBLE {
         let r = 1.0 / kappa;
         let d = caps.chord_error_mm;
