@@ -70,8 +70,8 @@ pub use setpoints::{ExtraFdMeter, FdMeter, FdStats, Setpoint, SetpointWriter};
 
 use crate::feed::PathIndex;
 use crate::geom::{
-    arclen_adaptive, arclen_gk7, curvature_vec_from, ParamCurve, ParamCurveDeriv, PreparedTrig,
-    Segment, Vec3,
+    arclen_adaptive, arclen_gk7, curvature_vec_from, CubicBez, ParamCurve, ParamCurveDeriv,
+    PreparedTrig, Segment, Vec3,
 };
 use crate::path::ExtraAxes;
 use serde::Serialize;
@@ -266,8 +266,10 @@ pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
     }
 }
 
-/// A curve the interpolator steps on: a [`Segment`], or a [`PreparedTrig`] (a
-/// trigonometric spline with its weights computed once per move; same results).
+/// A curve the interpolator steps on: a [`Segment`], a [`PreparedTrig`] (a
+/// trigonometric spline with its weights computed once per move) or a [`CubicBez`]
+/// (stepped directly rather than through the `Segment` dispatch, so that its polynomial
+/// evaluations inline into the step); the same results whichever way a move is stepped.
 trait StepCurve: ParamCurveDeriv {
     /// True when one evaluation of the point costs about as much as [`ParamCurveDeriv::ders`]
     /// (a trigonometric spline: one `sin_cos` either way). The step then evaluates `ders`
@@ -294,6 +296,21 @@ impl StepCurve for Segment {
 }
 
 impl StepCurve for PreparedTrig {
+    const DERS_ARE_CHEAP: bool = true;
+    #[inline]
+    fn step_arclen(&self, a: f64, b: f64) -> f64 {
+        arclen_gk7(self, a, b, STEP_ARCLEN_ACCURACY_MM)
+    }
+    #[inline]
+    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64 {
+        gauss(&GL3, |t| self.deriv(t), a, b)
+    }
+}
+
+impl StepCurve for CubicBez {
+    /// Point and derivatives of a cubic are a few multiply-adds each: evaluating them
+    /// together at every point tried costs less than evaluating the point and the
+    /// derivatives again at the next step's start.
     const DERS_ARE_CHEAP: bool = true;
     #[inline]
     fn step_arclen(&self, a: f64, b: f64) -> f64 {
@@ -401,6 +418,8 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                     }
                 };
                 self.step_curve(&prepared, len);
+            } else if let Segment::CubicBez(c) = m.segment {
+                self.step_curve(c, len);
             } else {
                 self.step_curve(m.segment, len);
             }

@@ -685,3 +685,41 @@ fn prepared_trig_steps_are_the_plain_steps() {
         assert_eq!(fast.stats, plain.stats);
     }
 }
+
+#[test]
+fn cubic_steps_are_the_segment_steps() {
+    // A cubic Bezier move is stepped as a `CubicBez` (inlined evaluation, derivatives
+    // carried from step to step); stepping it as a `Segment` must give the same points
+    // and arc lengths bit for bit, with and without the arc-length correction.
+    use crate::geom::CubicBez;
+    let c = CubicBez::new(
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(0.1, 0.2, 0.0),
+        Vec3::new(0.3, -0.1, 0.05),
+        Vec3::new(0.4, 0.1, 0.0),
+    );
+    let mut tp = Toolpath::new(c.p0);
+    tp.push_move(Move::feed(c, None, 1));
+    let p = PlanOptions::default();
+    let idx = crate::feed::PathIndex::new(&tp, &p);
+    let seg = Segment::CubicBez(c);
+    for arc_correction in [true, false] {
+        let opts = InterpOptions {
+            arc_correction,
+            ..InterpOptions::default()
+        };
+        let mut plain = Interpolator::new(&idx, opts);
+        let mut fast = Interpolator::new(&idx, opts);
+        let mut steps = 0;
+        while fast.u < 0.95 {
+            let len = 0.001 + 0.005 * ((steps as f64) * 0.37).sin().abs();
+            plain.step_curve(&seg, len);
+            fast.step_curve::<CubicBez>(&c, len);
+            assert_eq!((fast.u, fast.s, fast.p), (plain.u, plain.s, plain.p));
+            steps += 1;
+        }
+        assert!(steps > 50, "{steps} steps");
+        assert_eq!(fast.stats, plain.stats);
+        assert!(fast.stats.arc_corrections > 0 || !arc_correction);
+    }
+}
