@@ -65,8 +65,10 @@ impl FdMeter {
             let (t0, x0) = self.hist[n - 2];
             let dt = t - t0;
             if dt > 0.0 {
+                // One division per row, not per axis.
+                let inv_dt = 1.0 / dt;
                 for i in 0..3 {
-                    self.stats.v_max[i] = self.stats.v_max[i].max(((x[i] - x0[i]) / dt).abs());
+                    self.stats.v_max[i] = self.stats.v_max[i].max(((x[i] - x0[i]) * inv_dt).abs());
                 }
             }
         }
@@ -75,11 +77,13 @@ impl FdMeter {
             let (tb, xb) = self.hist[1];
             let (tc, xc) = self.hist[2];
             if tb > ta && tc > tb {
+                let (inv_ab, inv_bc) = (1.0 / (tb - ta), 1.0 / (tc - tb));
+                let two_inv_ac = 2.0 / (tc - ta);
                 let mut acc = [0.0; 3];
                 for i in 0..3 {
-                    let v1 = (xb[i] - xa[i]) / (tb - ta);
-                    let v2 = (xc[i] - xb[i]) / (tc - tb);
-                    acc[i] = 2.0 * (v2 - v1) / (tc - ta);
+                    let v1 = (xb[i] - xa[i]) * inv_ab;
+                    let v2 = (xc[i] - xb[i]) * inv_bc;
+                    acc[i] = (v2 - v1) * two_inv_ac;
                     if acc[i].abs() > self.stats.a_max[i] {
                         self.stats.a_max[i] = acc[i].abs();
                         self.stats.a_max_t[i] = tb;
@@ -87,8 +91,9 @@ impl FdMeter {
                 }
                 if let Some((tp, ap)) = self.last_acc {
                     if tb > tp {
+                        let inv = 1.0 / (tb - tp);
                         for i in 0..3 {
-                            let j = ((acc[i] - ap[i]) / (tb - tp)).abs();
+                            let j = ((acc[i] - ap[i]) * inv).abs();
                             if j > self.stats.j_max[i] {
                                 self.stats.j_max[i] = j;
                                 self.stats.j_max_t[i] = 0.5 * (tb + tp);
@@ -197,6 +202,22 @@ fn digits_rev(buf: &mut [u8], end: usize, mut u: u64, min_digits: usize) -> usiz
     k
 }
 
+/// `x.round() as i64` (half away from zero) for `|x| < 2^53`, without the library call:
+/// truncate, then the fraction `x - trunc(x)` is exact (both are representable and the
+/// difference is the low bits of `x`).
+#[inline]
+fn round_half_away(x: f64) -> i64 {
+    let t = x as i64;
+    let frac = x - t as f64;
+    if frac >= 0.5 {
+        t + 1
+    } else if frac <= -0.5 {
+        t - 1
+    } else {
+        t
+    }
+}
+
 /// Formats `v` with `decimals` (at most 9) decimals into `line` and returns the value as
 /// printed. Fast path: `v` is rounded to an integer `i` of units of `10^-decimals`, which
 /// is printed exactly; the printed decimal is then `i / 10^decimals`, and that division is
@@ -204,13 +225,13 @@ fn digits_rev(buf: &mut [u8], end: usize, mut u: u64, min_digits: usize) -> usiz
 /// parsing the text back would give.
 fn put(line: &mut Vec<u8>, v: f64, decimals: usize) -> f64 {
     let scale = POW10_U64[decimals] as f64;
-    let r = (v * scale).round();
-    if r.is_nan() || r.abs() >= FAST_LIMIT {
+    let x = v * scale;
+    if x.is_nan() || x.abs() >= FAST_LIMIT {
         let text = format!("{v:.decimals$}");
         line.extend_from_slice(text.as_bytes());
         return text.parse().unwrap_or(f64::NAN);
     }
-    let i = r as i64;
+    let i = round_half_away(x);
     if i < 0 {
         line.push(b'-');
     }
@@ -316,6 +337,38 @@ mod tests {
             fd.push(t, [3.0 * t * t, 0.0, 0.0]);
         }
         assert!((fd.stats.a_max[0] - 6.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn rounding_is_the_library_round() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+        ];
+        for k in [1.0f64, 7.0, 1e3, 123456789.0, 4.5e15, 8.9e15] {
+            for base in [k + 0.5, -(k + 0.5), k, -k] {
+                xs.extend([base, base.next_up(), base.next_down()]);
+            }
+        }
+        let mut r = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..100_000 {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            let u = (r >> 11) as f64 / (1u64 << 53) as f64;
+            let mag = 10f64.powf(u * 15.9);
+            xs.push(if r & 1 == 0 { mag } else { -mag });
+        }
+        for x in xs {
+            assert_eq!(round_half_away(x), x.round() as i64, "{x:e}");
+        }
     }
 
     #[test]
