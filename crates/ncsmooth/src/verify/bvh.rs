@@ -9,6 +9,10 @@ use crate::geom::{Aabb, Vec3};
 
 /// Primitives per leaf.
 const LEAF_SIZE: usize = 4;
+/// Up to this many primitives a query scans them all: no boxes to compute, no tree to
+/// build (the blend and run measurements of the smoothing methods compare a curve with
+/// one or two programmed pieces, thousands of times).
+const LINEAR_MAX_PRIMS: usize = 8;
 /// Depth of the query stack: a depth-first query holds at most one pending node per
 /// level plus the two children of the node it expands, and median splits keep the depth
 /// at `log2(n / LEAF_SIZE) + 1`, so this is ample for any primitive count an index can
@@ -38,6 +42,12 @@ pub(crate) struct Hit {
 
 impl Bvh {
     pub fn new(mut prims: Vec<Prim>) -> Bvh {
+        if prims.len() <= LINEAR_MAX_PRIMS {
+            return Bvh {
+                nodes: Vec::new(),
+                prims,
+            };
+        }
         let mut nodes = Vec::with_capacity(2 * prims.len() / LEAF_SIZE + 1);
         let boxes: Vec<Aabb> = prims.iter().map(|p| p.bbox()).collect();
         let mut order: Vec<(Aabb, Prim)> = boxes.into_iter().zip(prims.drain(..)).collect();
@@ -55,6 +65,16 @@ impl Bvh {
             prim: usize::MAX,
         };
         if self.nodes.is_empty() {
+            // A few primitives (or none): scan them.
+            for (i, prim) in self.prims.iter().enumerate() {
+                let d = prim.dist_sq(p);
+                if d < best.dist_sq {
+                    best = Hit {
+                        dist_sq: d,
+                        prim: i,
+                    };
+                }
+            }
             return best;
         }
         let mut stack = [0u32; STACK_DEPTH];
@@ -131,4 +151,61 @@ fn build(items: &mut [(Aabb, Prim)], offset: usize, nodes: &mut Vec<Node>) -> u3
     nodes[idx as usize].start = l;
     nodes[idx as usize].end = r;
     idx
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Arc, Line};
+    use crate::verify::prim::{PlanarArc, PrimGeom};
+
+    /// Lines and arcs scattered by a fixed generator.
+    fn prims(n: usize, seed: u64) -> Vec<Prim> {
+        let mut r = seed;
+        let mut next = move || {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            (r >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
+        };
+        (0..n)
+            .map(|i| {
+                let a = Vec3::new(next(), next(), 0.1 * next());
+                let b = a + Vec3::new(next(), next(), 0.0) * 0.2;
+                let geom = if i % 3 == 0 {
+                    let c = a + Vec3::new(0.3, 0.1, 0.0);
+                    let arc = Arc::from_center(a, b, c, Vec3::Z, i % 2 == 0, 0).expect("arc");
+                    PrimGeom::Arc(PlanarArc::new(&arc))
+                } else {
+                    PrimGeom::Line(Line::new(a, b))
+                };
+                Prim {
+                    geom,
+                    source: i as u32,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn nearest_is_the_brute_force_minimum() {
+        // Below and above the linear-scan size, with and without a bound.
+        for n in [1, 2, LINEAR_MAX_PRIMS, LINEAR_MAX_PRIMS + 1, 40, 300] {
+            let ps = prims(n, 0x9e37_79b9_7f4a_7c15 ^ n as u64);
+            let bvh = Bvh::new(ps.clone());
+            assert_eq!(bvh.nodes.is_empty(), n <= LINEAR_MAX_PRIMS);
+            for q in prims(50, 7) {
+                let p = q.eval(0.5);
+                let brute = ps
+                    .iter()
+                    .map(|x| x.dist_sq(p))
+                    .fold(f64::INFINITY, f64::min);
+                let hit = bvh.nearest(p, f64::INFINITY);
+                assert_eq!(hit.dist_sq, brute);
+                assert_eq!(bvh.prims[hit.prim].dist_sq(p), brute);
+                // A bound below the minimum finds nothing.
+                assert_eq!(bvh.nearest(p, 0.5 * brute).prim, usize::MAX);
+            }
+        }
+    }
 }
