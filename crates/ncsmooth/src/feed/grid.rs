@@ -846,9 +846,18 @@ fn refine(
     params
 }
 
-/// The grid of one move: the cap of its start point and its intervals, each with the cap
-/// of its end point.
-pub type MoveGrid = (f64, Vec<(Interval, f64)>);
+/// The grids of consecutive moves, flat: for each move the cap of its start point and the
+/// end of its intervals in `intervals`, each interval with the cap of its end point. A
+/// batch is two allocations however many moves it holds: vectors per move, allocated on
+/// the producing thread and freed on the planning one, made the two threads contend for
+/// the allocator's lock (most of the futex calls of a run).
+#[derive(Clone, Debug, Default)]
+pub struct GridBatch {
+    /// Per move: the start cap and the end (exclusive) of its intervals.
+    pub moves: Vec<(f64, usize)>,
+    /// The intervals of all the batch's moves, in order, with their end caps.
+    pub intervals: Vec<(Interval, f64)>,
+}
 
 /// Moves per message of [`GridGen::produce`].
 pub const GRID_BATCH_MOVES: usize = 256;
@@ -862,11 +871,15 @@ pub struct GridGen<'p, 'a> {
     /// Swept angle of arc intervals ([`arc_step`]).
     arc_step: f64,
     next_move: usize,
-    /// Pending intervals of the current move, with their end-point caps (reversed).
-    pending: Vec<(Interval, f64)>,
-    /// Move grids computed ahead by [`GridGen::produce`] on another thread, and the batch
-    /// being consumed.
-    ahead: Option<(Receiver<Vec<MoveGrid>>, std::vec::IntoIter<MoveGrid>)>,
+    /// The batch being consumed: received from [`GridGen::produce`] on another thread, or
+    /// the current move computed here.
+    batch: GridBatch,
+    /// Next move of `batch`.
+    batch_move: usize,
+    /// Pending intervals of the current move, `batch.intervals[pending.0..pending.1]`.
+    pending: (usize, usize),
+    /// The producer's channel, when the grid is computed ahead on another thread.
+    ahead: Option<Receiver<GridBatch>>,
     /// Blended junction corners passed.
     pub blended: usize,
 }
@@ -880,7 +893,9 @@ impl<'p, 'a> GridGen<'p, 'a> {
             arc_step: arc_step(&caps),
             caps,
             next_move: 0,
-            pending: Vec::new(),
+            batch: GridBatch::default(),
+            batch_move: 0,
+            pending: (0, 0),
             ahead: None,
             blended: 0,
         }
@@ -889,12 +904,19 @@ impl<'p, 'a> GridGen<'p, 'a> {
     /// Computes the grid of every move in order and sends it in batches of
     /// [`GRID_BATCH_MOVES`] (for a generator on another thread that [`GridGen::take_from`]
     /// the receiver); stops early when the receiver hangs up.
-    pub fn produce(&self, tx: SyncSender<Vec<MoveGrid>>) {
+    pub fn produce(&self, tx: SyncSender<GridBatch>) {
         let n = self.index.moves.len();
         let mut j = 0;
         while j < n {
             let end = (j + GRID_BATCH_MOVES).min(n);
-            let batch: Vec<MoveGrid> = (j..end).map(|k| self.move_intervals(k)).collect();
+            let mut batch = GridBatch {
+                moves: Vec::with_capacity(end - j),
+                intervals: Vec::new(),
+            };
+            for k in j..end {
+                let cap = self.move_intervals(k, &mut batch.intervals);
+                batch.moves.push((cap, batch.intervals.len()));
+            }
             if tx.send(batch).is_err() {
                 return;
             }
@@ -905,26 +927,36 @@ impl<'p, 'a> GridGen<'p, 'a> {
     /// Takes the move grids from `rx` (fed by [`GridGen::produce`] of a generator over
     /// the same index and options) instead of computing them: the same grid, computed
     /// on another thread while this one plans.
-    pub fn take_from(&mut self, rx: Receiver<Vec<MoveGrid>>) {
-        self.ahead = Some((rx, Vec::new().into_iter()));
+    pub fn take_from(&mut self, rx: Receiver<GridBatch>) {
+        self.ahead = Some(rx);
     }
 
-    /// The grid of move `j`, the next one: from the producer when there is one.
-    fn next_move_grid(&mut self, j: usize) -> MoveGrid {
-        if let Some((rx, batch)) = &mut self.ahead {
-            loop {
-                if let Some(g) = batch.next() {
-                    return g;
-                }
-                match rx.recv() {
-                    Ok(b) => *batch = b.into_iter(),
-                    // The producer is gone (it panicked): compute here.
-                    Err(_) => break,
+    /// The grid of move `j`, the next one (from the producer when there is one): its start
+    /// cap and the range of its intervals in `self.batch.intervals`.
+    fn next_move_grid(&mut self, j: usize) -> (f64, (usize, usize)) {
+        if self.batch_move >= self.batch.moves.len() {
+            match self.ahead.as_ref().map(|rx| rx.recv()) {
+                Some(Ok(b)) => self.batch = b,
+                // No producer, or it is gone (it panicked): compute here.
+                _ => {
+                    self.ahead = None;
+                    let mut intervals = std::mem::take(&mut self.batch.intervals);
+                    intervals.clear();
+                    let cap = self.move_intervals(j, &mut intervals);
+                    self.batch.moves.clear();
+                    self.batch.moves.push((cap, intervals.len()));
+                    self.batch.intervals = intervals;
                 }
             }
-            self.ahead = None;
+            self.batch_move = 0;
         }
-        self.move_intervals(j)
+        let start = match self.batch_move {
+            0 => 0,
+            k => self.batch.moves[k - 1].1,
+        };
+        let (cap, end) = self.batch.moves[self.batch_move];
+        self.batch_move += 1;
+        (cap, (start, end))
     }
     /// The caps in use.
     pub fn caps(&self) -> &Caps {
@@ -932,12 +964,12 @@ impl<'p, 'a> GridGen<'p, 'a> {
     }
     /// True when every move has been generated.
     pub fn done(&self) -> bool {
-        self.pending.is_empty() && self.next_move >= self.index.moves.len()
+        self.pending.0 == self.pending.1 && self.next_move >= self.index.moves.len()
     }
 
-    /// The intervals of move `j`, each with the cap of its end point from the move's own
-    /// geometry (the move's start cap is returned separately).
-    fn move_intervals(&self, j: usize) -> (f64, Vec<(Interval, f64)>) {
+    /// Appends the intervals of move `j` to `out`, each with the cap of its end point from
+    /// the move's own geometry, and returns the cap of the move's start point.
+    fn move_intervals(&self, j: usize, out: &mut Vec<(Interval, f64)>) -> f64 {
         let m = &self.index.moves[j];
         let caps = &self.caps;
         match m.segment {
@@ -956,21 +988,21 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     mid: None,
                 };
                 let Some(j) = caps.jerk else {
-                    return (cap, vec![(iv, cap)]);
+                    out.push((iv, cap));
+                    return cap;
                 };
                 // Jerk mode: the scalar tangential limit, and lines cut so that the
                 // dilated caps are resolved along them (see `super::jerk`).
                 iv.u_line = j.u_max_mm_s2;
                 let cuts = super::jerk::line_cuts(m.len);
-                let mut list = Vec::with_capacity(cuts.len() + 1);
                 let mut prev = 0.0;
                 for c in cuts.into_iter().chain(std::iter::once(m.len)) {
                     if c > prev {
-                        list.push((Interval { ds: c - prev, ..iv }, cap));
+                        out.push((Interval { ds: c - prev, ..iv }, cap));
                         prev = c;
                     }
                 }
-                (cap, list)
+                cap
             }
             seg => {
                 let sp = spans(seg);
@@ -1004,7 +1036,9 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 // Trapezoid mode imposes the rows at the midpoints too; jerk mode's caps
                 // live at grid points, so there every half is an interval of its own.
                 let with_mid = caps.jerk.is_none();
-                let mut out: Vec<(Interval, f64)> = Vec::with_capacity(params.len());
+                // This move's intervals are `out[base..]`.
+                let base = out.len();
+                out.reserve(params.len() / 2 + 1);
                 let mut s_acc = 0.0;
                 let n = params.len() / 2;
                 let piece = |a: &Sample, b: &Sample| arc_from_chord(a.3.dist(b.3), a.1.dot(b.1));
@@ -1027,7 +1061,8 @@ impl<'p, 'a> GridGen<'p, 'a> {
                             mid,
                         };
                         out.push((iv, cap));
-                    } else if let Some(last) = out.last_mut() {
+                    } else if out.len() > base {
+                        let last = out.last_mut().expect("non-empty");
                         last.1 = last.1.min(cap);
                     }
                 };
@@ -1049,49 +1084,51 @@ impl<'p, 'a> GridGen<'p, 'a> {
                             k: q.2,
                             x_cap: point_cap_x_kappa(q.1, q.2, q.4, m.vcap_mm_s, caps),
                         };
-                        push(&mut out, ds, a, b, Some(mid));
+                        push(out, ds, a, b, Some(mid));
                     } else {
-                        push(&mut out, ds * f, a, q, None);
-                        push(&mut out, ds * (1.0 - f), q, b, None);
+                        push(out, ds * f, a, q, None);
+                        push(out, ds * (1.0 - f), q, b, None);
                     }
                 }
-                if let (Some(v), false) = (caps.vaxis, out.is_empty()) {
+                if let (Some(v), false) = (caps.vaxis, out.len() == base) {
                     // Per-axis velocity over a whole interval: both of its ends take the
                     // cap of the largest tangent component inside it (the point caps
                     // alone let `v |T_i|` bulge between two binding ends).
-                    let n = out.len();
+                    let mv = &mut out[base..];
+                    let n = mv.len();
                     for k in 0..n {
-                        let c = vaxis_interval_cap(&out[k].0, &v);
+                        let c = vaxis_interval_cap(&mv[k].0, &v);
                         if k == 0 {
                             start_cap = start_cap.min(c);
                         } else {
-                            out[k - 1].1 = out[k - 1].1.min(c);
+                            mv[k - 1].1 = mv[k - 1].1.min(c);
                         }
-                        out[k].1 = out[k].1.min(c);
+                        mv[k].1 = mv[k].1.min(c);
                     }
                 }
-                if let (Some(j), false) = (caps.jerk, out.is_empty()) {
+                if let (Some(j), false) = (caps.jerk, out.len() == base) {
                     // Jerk caps at every point: its curvature, and the curvature rate
                     // (finite difference over each interval) of the intervals beside it.
-                    let n = out.len();
+                    let mv = &mut out[base..];
+                    let n = mv.len();
                     let rates: Vec<Vec3> =
-                        out.iter().map(|(iv, _)| (iv.k1 - iv.k0) / iv.ds).collect();
+                        mv.iter().map(|(iv, _)| (iv.k1 - iv.k0) / iv.ds).collect();
                     let rate = |i: usize| rates[i];
                     for p in 0..=n {
                         let r = abs_max(
                             p.checked_sub(1).map_or(Vec3::ZERO, rate),
                             if p < n { rate(p) } else { Vec3::ZERO },
                         );
-                        let k = if p == 0 { out[0].0.k0 } else { out[p - 1].0.k1 };
+                        let k = if p == 0 { mv[0].0.k0 } else { mv[p - 1].0.k1 };
                         let c = j.speed_cap_x(k, r, Vec3::ZERO);
                         if p == 0 {
                             start_cap = start_cap.min(c);
                         } else {
-                            out[p - 1].1 = out[p - 1].1.min(c);
+                            mv[p - 1].1 = mv[p - 1].1.min(c);
                         }
                     }
                 }
-                (start_cap, out)
+                start_cap
             }
         }
     }
@@ -1111,12 +1148,12 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     return true;
                 }
             }
-            if pts.len() >= target && self.pending.is_empty() {
+            if pts.len() >= target && self.pending.0 == self.pending.1 {
                 // Only cut between moves or inside a curve, never before emitting a
                 // move's end point (it carries the joint).
                 return false;
             }
-            if self.pending.is_empty() {
+            if self.pending.0 == self.pending.1 {
                 if self.next_move >= self.index.moves.len() {
                     // Nothing left (empty program): the first point is the end.
                     if let Some(p) = pts.last_mut() {
@@ -1125,16 +1162,16 @@ impl<'p, 'a> GridGen<'p, 'a> {
                     return true;
                 }
                 let j = self.next_move;
-                let (start_cap, mut list) = self.next_move_grid(j);
+                let (start_cap, range) = self.next_move_grid(j);
                 if let Some(p) = pts.last_mut() {
                     p.x_cap = p.x_cap.min(start_cap);
                     p.x_src = p.x_src.min(start_cap);
                 }
-                list.reverse();
-                self.pending = list;
+                self.pending = range;
                 self.next_move += 1;
             }
-            let (iv, cap) = self.pending.pop().expect("non-empty");
+            let (iv, cap) = self.batch.intervals[self.pending.0];
+            self.pending.0 += 1;
             let s = pts.last().map_or(0.0, |p| p.s) + iv.ds;
             ivs.push(iv);
             let mut pt = GridPoint {
@@ -1143,7 +1180,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 x_src: cap,
                 stop: None,
             };
-            if self.pending.is_empty() {
+            if self.pending.0 == self.pending.1 {
                 let m = &self.index.moves[self.next_move - 1];
                 pt.s = m.s0 + m.len;
                 match m.after {
@@ -1159,7 +1196,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 }
             }
             pts.push(pt);
-            if pts.len() >= target && !self.pending.is_empty() {
+            if pts.len() >= target && self.pending.0 < self.pending.1 {
                 return false;
             }
         }
