@@ -283,13 +283,20 @@ fn move_len(seg: &Segment) -> f64 {
     }
 }
 
-/// Fewest moves for which [`move_lens`] starts threads.
+/// Fewest moves for which [`move_lens_and_joints`] starts threads.
 const PARALLEL_MIN_MOVES: usize = 4096;
 
-/// [`move_len`] of every move of `path`, in order, on up to [`crate::par::MAX_THREADS`]
-/// threads (the adaptive quadrature of curved moves is most of the indexing time; each
-/// length is computed alone, so the result does not depend on the number of threads).
-fn move_lens(path: &Toolpath) -> Vec<f64> {
+/// For every move of `path`, in order: its [`move_len`], and the [`joint_after`] it with
+/// the next move (if any). On up to [`crate::par::MAX_THREADS`] threads: the adaptive
+/// quadrature of curved moves and the joints' tangents and curvatures are most of the
+/// indexing time, and each is computed alone, so the result does not depend on the number
+/// of threads. The joint is the one the index uses when nothing comes between the two
+/// moves (no event, no dropped zero-length move).
+fn move_lens_and_joints(
+    path: &Toolpath,
+    opts: &PlanOptions,
+    caps: &Caps,
+) -> Vec<(f64, Option<After>)> {
     let segs: Vec<&Segment> = path
         .blocks
         .iter()
@@ -298,7 +305,12 @@ fn move_lens(path: &Toolpath) -> Vec<f64> {
             Block::Event(_) => None,
         })
         .collect();
-    crate::par::map(segs.len(), PARALLEL_MIN_MOVES, |i| move_len(segs[i]))
+    crate::par::map(segs.len(), PARALLEL_MIN_MOVES, |i| {
+        let joint = segs
+            .get(i + 1)
+            .map(|next| joint_after(segs[i], next, opts, caps));
+        (move_len(segs[i]), joint)
+    })
 }
 
 fn spans(seg: &Segment) -> usize {
@@ -404,8 +416,10 @@ impl<'a> PathIndex<'a> {
             .push(m);
             add_stop(pending, StopReason::Event, m.duration);
         };
-        let lens = move_lens(path);
-        let mut lens = lens.into_iter();
+        let lens = move_lens_and_joints(path, opts, &caps);
+        // Number of the current move (in `lens`) and of the last one indexed.
+        let mut move_no = 0usize;
+        let mut prev_no: Option<usize> = None;
         for b in &path.blocks {
             match b {
                 Block::Event(e) => match e.kind {
@@ -435,7 +449,9 @@ impl<'a> PathIndex<'a> {
                     let extra_start = prog.or(m.extra).map(|v| machine(v, &offset));
                     let extra_end = m.extra.map(|v| machine(v, &offset));
                     prog = m.extra.or(prog);
-                    let len = lens.next().expect("one length per move");
+                    let this_no = move_no;
+                    move_no += 1;
+                    let len = lens[this_no].0;
                     if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
                         // A zero-length move that changes the extra axes moves them alone.
                         if let (Some(a), Some(b)) = (extra_start, extra_end) {
@@ -461,7 +477,11 @@ impl<'a> PathIndex<'a> {
                     if let Some(prev) = moves.last_mut() {
                         prev.after = match pending.take() {
                             Some((reason, dwell_s)) => After::Stop { reason, dwell_s },
-                            None => joint_after(prev.segment, &m.segment, opts, &caps),
+                            None => match prev_no {
+                                // The joint computed with the lengths.
+                                Some(p) if p + 1 == this_no => lens[p].1.expect("a move follows"),
+                                _ => joint_after(prev.segment, &m.segment, opts, &caps),
+                            },
                         };
                     } else if let Some(p) = pending.take() {
                         lead = Some(p);
@@ -479,6 +499,7 @@ impl<'a> PathIndex<'a> {
                             dwell_s: 0.0,
                         },
                     });
+                    prev_no = Some(this_no);
                     s += len;
                 }
             }

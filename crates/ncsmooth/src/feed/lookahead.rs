@@ -490,6 +490,58 @@ mod tests {
     }
 
     #[test]
+    fn index_joints_skip_dropped_moves_and_events() {
+        // The joints come with the move lengths for consecutive moves; a dropped
+        // zero-length move or an event between two moves must not borrow them.
+        use super::super::grid::After;
+        // Along Y first: a zero-length move's fallback tangent is X, so borrowing the
+        // joint across it would find a corner.
+        let (a, b, c) = (Vec3::ZERO, Vec3::Y, Vec3::new(0.0, 2.0, 0.0));
+        let d = Vec3::new(1.0, 2.0, 0.0);
+        let e = Vec3::new(2.0, 2.0, 0.0);
+        let mut tp = Toolpath::new(a);
+        tp.push_move(Move::feed(Line::new(a, b), None, 1));
+        // Zero length, and a direction of its own had it not been dropped.
+        tp.push_move(Move::feed(Line::new(b, b), None, 2));
+        tp.push_move(Move::feed(Line::new(b, c), None, 3));
+        tp.push_move(Move::feed(Line::new(c, d), None, 4));
+        tp.push_event(crate::path::Event {
+            line: 5,
+            kind: crate::path::EventKind::Dwell(0.25),
+            text: "G4 P0.25".into(),
+        });
+        tp.push_move(Move::feed(Line::new(d, e), None, 6));
+        let idx = PathIndex::new(&tp, &PlanOptions::default());
+        let after: Vec<After> = idx.moves.iter().map(|m| m.after).collect();
+        assert_eq!(after.len(), 4, "{after:?}");
+        // A to B to C is straight: no stop where the zero-length move was.
+        assert!(matches!(after[0], After::Continue { .. }), "{after:?}");
+        // B to C to D turns 90 degrees.
+        assert!(matches!(
+            after[1],
+            After::Stop {
+                reason: StopReason::Corner,
+                ..
+            }
+        ));
+        // C to D to E is straight, but the dwell stops it.
+        assert!(matches!(
+            after[2],
+            After::Stop {
+                reason: StopReason::Dwell,
+                dwell_s
+            } if dwell_s == 0.25
+        ));
+        assert!(matches!(
+            after[3],
+            After::Stop {
+                reason: StopReason::End,
+                ..
+            }
+        ));
+    }
+
+    #[test]
     fn grid_thread_plans_exactly_as_one_thread() {
         // A zigzag of curved (Bezier) and straight moves, more than GRID_THREAD_MIN_MOVES:
         // plan_stream computes the grid on a second thread; plan_with on this one. The
