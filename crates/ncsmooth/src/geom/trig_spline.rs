@@ -331,6 +331,11 @@ impl TrigSpline {
     /// basis terms (`S` and `C` are monotone on the window, every term is a polynomial in
     /// them).
     pub fn deriv2_bound(&self, ta: f64, tb: f64) -> f64 {
+        self.deriv2_bound_w(&self.weights(), ta, tb)
+    }
+
+    /// [`TrigSpline::deriv2_bound`] with the weights given.
+    fn deriv2_bound_w(&self, w: &[Vec3; 6], ta: f64, tb: f64) -> f64 {
         let (s, c) = sc_ranges(self.u_of(ta), self.u_of(tb));
         let s2 = s.mul(s);
         let c2 = c.mul(c);
@@ -341,7 +346,6 @@ impl TrigSpline {
             c.scale(-1.0),
             s.scale(-1.0),
         ];
-        let w = self.weights();
         let mut sq = 0.0;
         for axis in 0..3 {
             let mut acc = Iv(0.0, 0.0);
@@ -385,8 +389,11 @@ impl TrigSpline {
         .inflate(pad)
     }
 
+    /// Flattening of `[ta, tb]` with the weights `w` (computed once per flattening).
+    #[allow(clippy::too_many_arguments)]
     fn flatten_rec<F: FnMut(Vec3)>(
         &self,
+        w: &[Vec3; 6],
         ta: f64,
         tb: f64,
         accuracy: f64,
@@ -394,13 +401,18 @@ impl TrigSpline {
         sink: &mut F,
     ) {
         let h = tb - ta;
-        if depth >= MAX_FLATTEN_DEPTH || h * h * 0.125 * self.deriv2_bound(ta, tb) <= accuracy {
-            sink(if tb >= 1.0 { self.end() } else { self.eval(tb) });
+        if depth >= MAX_FLATTEN_DEPTH || h * h * 0.125 * self.deriv2_bound_w(w, ta, tb) <= accuracy
+        {
+            sink(if tb >= 1.0 {
+                self.end()
+            } else {
+                self.eval_w(w, tb)
+            });
             return;
         }
         let m = 0.5 * (ta + tb);
-        self.flatten_rec(ta, m, accuracy, depth + 1, sink);
-        self.flatten_rec(m, tb, accuracy, depth + 1, sink);
+        self.flatten_rec(w, ta, m, accuracy, depth + 1, sink);
+        self.flatten_rec(w, m, tb, accuracy, depth + 1, sink);
     }
 }
 
@@ -569,7 +581,7 @@ impl Flatten for TrigSpline {
     /// `|P(t) - L(t)| <= h^2 / 8 * M` for every `t`: each curve point has a chord point
     /// within `accuracy` and each chord point a curve point within `accuracy`.
     fn flatten<F: FnMut(Vec3)>(&self, accuracy: f64, sink: &mut F) {
-        self.flatten_rec(0.0, 1.0, accuracy, 0, sink);
+        self.flatten_rec(&self.weights(), 0.0, 1.0, accuracy, 0, sink);
     }
 }
 

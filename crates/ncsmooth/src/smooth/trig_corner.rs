@@ -85,7 +85,7 @@
 
 use super::screen::{screen, ScreenOptions};
 use super::{assemble, Chain, ChainPos, OutPiece, SmoothOptions, SmoothReport};
-use crate::geom::{Line, ParamCurve, ParamCurveDeriv, Segment, TrigSpline, Vec3};
+use crate::geom::{Line, ParamCurve, ParamCurveDeriv, PreparedTrig, Segment, TrigSpline, Vec3};
 use crate::path::Move;
 use crate::verify::{deviation_segments, DEGENERATE_MM};
 use std::sync::OnceLock;
@@ -214,10 +214,10 @@ fn plane_dir(beta: f64) -> Vec3 {
     Vec3::new(beta.cos(), beta.sin(), 0.0)
 }
 
-/// Signed curvature in the xy plane.
-fn signed_curvature(c: &TrigSpline, u: f64) -> f64 {
-    let d1 = c.deriv(u);
-    let d2 = c.deriv2(u);
+/// Signed curvature in the xy plane (both derivatives from one evaluation; the same
+/// values as the spline's own `deriv` and `deriv2`).
+fn signed_curvature(c: &PreparedTrig, u: f64) -> f64 {
+    let [_, d1, d2] = c.ders(u);
     let s = d1.norm();
     if s <= f64::MIN_POSITIVE {
         return 0.0;
@@ -261,6 +261,7 @@ pub fn round_deviation(beta: f64, rho: f64) -> f64 {
 }
 
 fn round_deviation_of(c: &TrigSpline, b: Vec3, n: usize, refine: bool) -> f64 {
+    let c = PreparedTrig::new(c);
     let leg_a = Line::new(-Vec3::X, Vec3::ZERO);
     let leg_b = Line::new(Vec3::ZERO, b);
     let near = |u: f64| -c.eval(u).norm();
@@ -277,7 +278,8 @@ fn round_shape_n(beta: f64, rho: f64, n: usize, refine: bool) -> RoundShape {
     let c = round_unit_curve(beta, rho);
     let b = plane_dir(beta);
     let deviation = round_deviation_of(&c, b, n, refine);
-    let curv = |u: f64| signed_curvature(&c, u);
+    let prepared = PreparedTrig::new(&c);
+    let curv = |u: f64| signed_curvature(&prepared, u);
     let kmax = sampled_max(&curv, n, refine);
     let kmin = -sampled_max(&|u| -curv(u), n, false);
     RoundShape {
@@ -400,7 +402,7 @@ pub fn loop_shape(beta: f64, lambda: f64) -> LoopShape {
 }
 
 fn loop_shape_n(beta: f64, lambda: f64, n: usize, refine: bool) -> LoopShape {
-    let c = loop_unit_curve(beta, lambda);
+    let c = PreparedTrig::new(&loop_unit_curve(beta, lambda));
     let exc = sampled_max(&|u| c.eval(u).norm(), n, refine);
     // A left corner is looped clockwise: negative curvature throughout.
     let curv = |u: f64| signed_curvature(&c, u);
