@@ -928,16 +928,20 @@ impl<'p, 'a> GridGen<'p, 'a> {
     pub fn produce(&self, tx: SyncSender<GridBatch>) {
         let n = self.index.moves.len();
         let mut j = 0;
+        // Room for as many intervals as the last batch had, and a quarter more, so that a
+        // batch's vector seldom grows by copying.
+        let mut room = 0;
         while j < n {
             let end = (j + GRID_BATCH_MOVES).min(n);
             let mut batch = GridBatch {
                 moves: Vec::with_capacity(end - j),
-                intervals: Vec::new(),
+                intervals: Vec::with_capacity(room + room / 4),
             };
             for k in j..end {
                 let cap = self.move_intervals(k, &mut batch.intervals);
                 batch.moves.push((cap, batch.intervals.len()));
             }
+            room = batch.intervals.len();
             if tx.send(batch).is_err() {
                 return;
             }
@@ -1191,10 +1195,11 @@ impl<'p, 'a> GridGen<'p, 'a> {
                 self.pending = range;
                 self.next_move += 1;
             }
-            let (iv, cap) = self.batch.intervals[self.pending.0];
+            let (iv, cap) = &self.batch.intervals[self.pending.0];
+            let cap = *cap;
             self.pending.0 += 1;
             let s = pts.last().map_or(0.0, |p| p.s) + iv.ds;
-            ivs.push(iv);
+            ivs.push(*iv);
             let mut pt = GridPoint {
                 s,
                 x_cap: cap,

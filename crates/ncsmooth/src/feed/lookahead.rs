@@ -333,14 +333,19 @@ fn plan_with(
         for k in 0..commit {
             let q = ivs[k].forward(xf[k], bwd[k + 1], &caps);
             xf.push(q);
+            // (An interval is some 200 bytes: not copied unless it changes.)
+            let dilated;
             let iv = match radius {
-                Some(_) => Interval {
-                    x_inside: xin[k],
-                    ..ivs[k]
-                },
-                None => ivs[k],
+                Some(_) => {
+                    dilated = Interval {
+                        x_inside: xin[k],
+                        ..ivs[k]
+                    };
+                    &dilated
+                }
+                None => &ivs[k],
             };
-            pieces(&iv, pts[k].s, xf[k], q, &mut out);
+            pieces(iv, pts[k].s, xf[k], q, &mut out);
         }
         stats.plan_time_s += clock.elapsed().as_secs_f64();
         for pc in &out {
