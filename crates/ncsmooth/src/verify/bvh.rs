@@ -43,10 +43,7 @@ pub(crate) struct Hit {
 impl Bvh {
     pub fn new(mut prims: Vec<Prim>) -> Bvh {
         if prims.len() <= LINEAR_MAX_PRIMS {
-            return Bvh {
-                nodes: Vec::new(),
-                prims,
-            };
+            return Bvh::linear(prims);
         }
         let mut nodes = Vec::with_capacity(2 * prims.len() / LEAF_SIZE + 1);
         let boxes: Vec<Aabb> = prims.iter().map(|p| p.bbox()).collect();
@@ -56,6 +53,15 @@ impl Bvh {
         }
         let prims = order.into_iter().map(|(_, p)| p).collect();
         Bvh { nodes, prims }
+    }
+
+    /// An index that scans all of `prims` at every query: for a handful of queries a tree
+    /// would cost more to build than it saves.
+    pub fn linear(prims: Vec<Prim>) -> Bvh {
+        Bvh {
+            nodes: Vec::new(),
+            prims,
+        }
     }
 
     /// Nearest primitive to `p` among those closer than `sqrt(bound_sq)`.

@@ -35,6 +35,11 @@ use std::f64::consts::TAU;
 /// circle of a programmed arc (the mismatch is added to the bound).
 const SAME_CIRCLE_MM: f64 = 1e-7;
 
+/// Fewest programmed vertices for which the vertex queries (b) use a tree over the
+/// output; below, each vertex scans the output's primitives (the smoothing methods measure
+/// thousands of single curves against one or two programmed pieces).
+const FEW_VERTICES: usize = 8;
+
 /// Measured two-sided deviation.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Deviation {
@@ -113,8 +118,13 @@ pub fn deviation_segments(
         return dev;
     }
 
-    // (b) programmed vertices to the output.
-    let out_bvh = Bvh::new(out_prims.clone());
+    // (b) programmed vertices to the output (a few vertices are scanned against every
+    // output primitive: a tree would cost more to build than it saves).
+    let out_bvh = if programmed.len() < FEW_VERTICES {
+        Bvh::linear(out_prims.clone())
+    } else {
+        Bvh::new(out_prims.clone())
+    };
     let mut q = Query::new(&out_bvh);
     let vertex = |p: Vec3, line: u32, dev: &mut Deviation, q: &mut Query| {
         let d = q.dist(p);
