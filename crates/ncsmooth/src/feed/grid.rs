@@ -655,8 +655,8 @@ pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {
     TurnBounds::new(caps).u_bound(t)
 }
 
-/// What [`u_bound`] and [`TurnBounds::cos_max_turn_at`] take from the caps, computed once per
-/// generator rather than at every check (the same operations, so the same values).
+/// What [`u_bound`] and [`TurnBounds::cos_max_turn_at`] take from the caps, computed once
+/// per refined move rather than at every check (the same operations, so the same values).
 #[derive(Clone, Copy, Debug)]
 struct TurnBounds {
     acc: [f64; 3],
