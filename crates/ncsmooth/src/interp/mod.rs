@@ -277,10 +277,17 @@ trait StepCurve: ParamCurveDeriv {
     /// arc-length correction and the next step's start, instead of evaluating the point and
     /// each derivative apart: the same numbers, fewer `sin_cos`.
     const DERS_ARE_CHEAP: bool;
-    /// Arc length over one step, as [`step_arclen`].
-    fn step_arclen(&self, a: f64, b: f64) -> f64;
+    /// Arc length over one step, as [`step_arclen`] (for a curve evaluated directly:
+    /// [`arclen_gk7`] on its own derivative).
+    #[inline]
+    fn step_arclen(&self, a: f64, b: f64) -> f64 {
+        arclen_gk7(self, a, b, STEP_ARCLEN_ACCURACY_MM)
+    }
     /// Signed 3-point Gauss-Legendre arc length, as [`gl3_signed_arclen`].
-    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64;
+    #[inline]
+    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64 {
+        gauss(&GL3, |t| self.deriv(t), a, b)
+    }
 }
 
 impl StepCurve for Segment {
@@ -297,14 +304,6 @@ impl StepCurve for Segment {
 
 impl StepCurve for PreparedTrig {
     const DERS_ARE_CHEAP: bool = true;
-    #[inline]
-    fn step_arclen(&self, a: f64, b: f64) -> f64 {
-        arclen_gk7(self, a, b, STEP_ARCLEN_ACCURACY_MM)
-    }
-    #[inline]
-    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64 {
-        gauss(&GL3, |t| self.deriv(t), a, b)
-    }
 }
 
 impl StepCurve for CubicBez {
@@ -312,14 +311,6 @@ impl StepCurve for CubicBez {
     /// together at every point tried costs less than evaluating the point and the
     /// derivatives again at the next step's start.
     const DERS_ARE_CHEAP: bool = true;
-    #[inline]
-    fn step_arclen(&self, a: f64, b: f64) -> f64 {
-        arclen_gk7(self, a, b, STEP_ARCLEN_ACCURACY_MM)
-    }
-    #[inline]
-    fn gl3_signed_arclen(&self, a: f64, b: f64) -> f64 {
-        gauss(&GL3, |t| self.deriv(t), a, b)
-    }
 }
 
 /// Walks the path of a [`PathIndex`] to planned arc lengths.
