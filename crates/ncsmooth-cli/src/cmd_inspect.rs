@@ -124,11 +124,11 @@ pub fn render_text(r: &InspectReport) -> String {
 
 /// Runs `inspect`.
 pub fn run(a: InspectArgs, _ui: Ui) -> Result<()> {
-    let p = load(&a.file)?;
+    let p = load(&a.file)?.program;
     let r = report(io::display_name(&a.file), &p);
     if a.json {
-        io::print_stdout(&(serde_json::to_string_pretty(&r)? + "\n"))
+        io::print_stdout((serde_json::to_string_pretty(&r)? + "\n").as_bytes())
     } else {
-        io::print_stdout(&render_text(&r))
+        io::print_stdout(render_text(&r).as_bytes())
     }
 }

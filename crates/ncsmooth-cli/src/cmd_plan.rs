@@ -189,7 +189,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (builtin_butterfly(), a.file.clone())
     } else {
         (
-            load(&a.file)?.toolpath,
+            load(&a.file)?.program.toolpath,
             io::display_name(&a.file).to_string(),
         )
     };
@@ -276,7 +276,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let json = serde_json::to_string_pretty(&run)?;
     match (&mut report_out, &a.report) {
         (Some(f), _) => f.write_all(json.as_bytes())?,
-        (None, Some(_)) => io::print_stdout(&json)?,
+        (None, Some(_)) => io::print_stdout(json.as_bytes())?,
         (None, None) => {}
     }
     for out in [samples_out, setpoints_out, report_out]

@@ -1,11 +1,17 @@
 //! `ncsmooth smooth`: smooth a program within a two-sided tolerance, verify the result and
 //! write G-code (plus an optional JSON report).
 //!
+//! The written file is the program's own text with the smoothed motion put in place of the
+//! lines it replaces ([`ncsmooth_gcode::rewrite()`]): comments, M codes, block-delete
+//! marks, `%`, control flow, offsets and everything the smoothing does not touch are
+//! copied verbatim, in the program's units.
+//!
 //! The written file honours `--tol`: curves that G-code cannot carry are built to
 //! `tol - chord - rounding` and then flattened into G1 lines within `chord` (default
 //! `tol / 10`); `rounding` is the most a point moves when its coordinates are printed with
-//! `--decimals` digits ([`ncsmooth_gcode::writer::rounding_mm`]). What is measured is the
-//! written text itself, read back by the parser, against the program, with
+//! `--decimals` digits (one more in inch programs,
+//! [`ncsmooth_gcode::rewrite::rounding_mm_for`]). What is measured is the written text
+//! itself, read back by the parser, against the program, with
 //! [`ncsmooth::verify::deviation`], before any file is written; a violation is an internal
 //! error (exit 1) and no file is written.
 
@@ -15,6 +21,7 @@ use clap::{Args, ValueEnum};
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
+use ncsmooth_gcode::RewriteOptions;
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -173,8 +180,8 @@ pub struct SmoothRunReport {
 
 /// Result of [`smooth_program`]: the written text and the report.
 pub struct SmoothOutcome {
-    /// G-code text.
-    pub gcode: String,
+    /// G-code text (the program's bytes where they are copied).
+    pub gcode: Vec<u8>,
     /// Report.
     pub report: SmoothRunReport,
     /// The smoothed path before flattening (what a controller with curve support runs).
@@ -186,6 +193,7 @@ pub struct SmoothOutcome {
 /// tolerance derived from `tol` and `chord`.
 pub fn smooth_program(
     name: &str,
+    src: &[u8],
     program: &ncsmooth_gcode::Program,
     base: SmoothOptions,
     tol: f64,
@@ -202,7 +210,13 @@ pub fn smooth_program(
     if !(chord > 0.0 && chord < tol) {
         return Err(io::BadInput(format!("--chord must be in (0, tol), got {chord}")).into());
     }
-    let rounding = ncsmooth_gcode::writer::rounding_mm(decimals);
+    // Inch programs are written in inches: their rounding applies where they are.
+    let rounding = program
+        .stats
+        .units_seen
+        .iter()
+        .map(|&u| ncsmooth_gcode::rewrite::rounding_mm_for(u, decimals))
+        .fold(ncsmooth_gcode::writer::rounding_mm(decimals), f64::max);
     // `none` builds no curves, but rounding still moves its points and off-plane arcs are
     // still flattened: the same budget applies.
     let curve_tol = tol - chord - rounding;
@@ -244,18 +258,16 @@ pub fn smooth_program(
     let smoothed = smooth(&program.toolpath, &opts).map_err(|e| io::BadInput(e.to_string()))?;
     t.smooth_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let flat = smoothed.toolpath.flattened(chord);
-    let wopts = ncsmooth_gcode::WriteOptions {
-        decimals: decimals.min(MAX_DECIMALS),
-        chord_mm: chord,
-        header: Some(format!(
-            "ncsmooth {} --method {} --tol {tol} (from {name})",
-            env!("CARGO_PKG_VERSION"),
-            method.name()
-        )),
-        ..Default::default()
+    let wopts = RewriteOptions::new(decimals.min(MAX_DECIMALS), chord).with_header(format!(
+        "ncsmooth {} --method {} --tol {tol} (from {name})",
+        env!("CARGO_PKG_VERSION"),
+        method.name()
+    ));
+    let write = |tp: &ncsmooth::Toolpath| {
+        ncsmooth_gcode::rewrite(src, program, tp, &wopts)
+            .map_err(|e| anyhow::anyhow!("writing the smoothed program: {e}"))
     };
-    let gcode = ncsmooth_gcode::write(&flat, &wopts);
+    let gcode = write(&smoothed.toolpath)?;
     t.write_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let loops = loop_size.map(|size| check_loops(&smoothed.toolpath, &program.toolpath, size));
@@ -263,18 +275,16 @@ pub fn smooth_program(
     // reconstruction are part of what the machine will run. In loop mode the loops are
     // measured by their own bound, and the two-sided tolerance on the same text written
     // without them.
-    let read_back = |text: &str| -> Result<ncsmooth::Toolpath> {
-        ncsmooth_gcode::parse_str(text, name, &Default::default())
+    let read_back = |text: &[u8]| -> Result<ncsmooth::Toolpath> {
+        ncsmooth_gcode::parse_bytes(text, name, &Default::default())
             .map(|p| p.toolpath)
             .map_err(|e| anyhow::anyhow!("the written G-code does not read back: {e}"))
     };
     let written = if loop_size.is_some() {
-        let no_loops = without_loops(&smoothed.toolpath).flattened(chord);
-        read_back(&ncsmooth_gcode::write(&no_loops, &wopts))?
+        read_back(&write(&without_loops(&smoothed.toolpath))?)?
     } else {
         read_back(&gcode)?
     };
-    drop(flat);
     let dev = deviation(&written, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
     let loops_ok = match (loops, loop_size) {
         (Some(l), Some(size)) => l.within(size),
@@ -323,7 +333,7 @@ pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
     }
     for (path, bytes) in outputs {
         if path.is_some_and(|p| p.as_os_str() == "-") {
-            io::print_stdout(&String::from_utf8_lossy(bytes))?;
+            io::print_stdout(bytes)?;
         }
     }
     Ok(())
@@ -332,13 +342,15 @@ pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
 /// Runs `smooth`.
 pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     let t0 = Instant::now();
-    let program = load(&a.file)?;
+    let loaded = load(&a.file)?;
+    let program = &loaded.program;
     let parse_s = t0.elapsed().as_secs_f64();
     let name = io::display_name(&a.file);
     let base = a.options()?;
     let mut out = smooth_program(
         name,
-        &program,
+        &loaded.src,
+        program,
         base,
         a.tol,
         a.chord,
@@ -368,7 +380,7 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     }
     let json = serde_json::to_string_pretty(r)?;
     write_outputs(&[
-        (Some(&a.output), out.gcode.as_bytes()),
+        (Some(&a.output), &out.gcode[..]),
         (a.report.as_ref(), json.as_bytes()),
     ])?;
     let s = &r.smoothing;

@@ -117,6 +117,7 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
         let t0 = std::time::Instant::now();
         let out = smooth_program(
             "butterfly_1000.ngc",
+            src.as_bytes(),
             &program,
             ncsmooth::smooth::SmoothOptions {
                 method: m,
@@ -127,7 +128,7 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
             4,
         )?;
         let file = format!("butterfly_{}.ngc", m.name());
-        io::write_atomic(&a.out.join(&file), out.gcode.as_bytes())?;
+        io::write_atomic(&a.out.join(&file), &out.gcode)?;
         // Plan the smoothed path (curves as they are) with the default machine limits.
         let (plan, csv) = execute(
             &out.smoothed,

@@ -127,7 +127,7 @@ impl Drop for OutputFile {
 /// Writes `bytes` to `path` atomically ([`OutputFile`]), or to stdout for `-`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if path.as_os_str() == "-" {
-        return print_stdout(&String::from_utf8_lossy(bytes));
+        return print_stdout(bytes);
     }
     let mut f = OutputFile::create(path)?;
     f.write_all(bytes)
@@ -146,9 +146,9 @@ pub fn display_name(path: &str) -> &str {
 
 /// Prints to stdout; a closed pipe (`ncsmooth inspect f | head`) ends the output quietly
 /// instead of failing.
-pub fn print_stdout(text: &str) -> Result<()> {
+pub fn print_stdout(text: &[u8]) -> Result<()> {
     let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+    match out.write_all(text).and_then(|_| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         other => Ok(other?),
     }

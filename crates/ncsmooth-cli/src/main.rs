@@ -92,12 +92,20 @@ fn main() -> ExitCode {
     }
 }
 
+/// A parsed input with its source text (for writers that keep the program's own lines).
+pub struct Loaded {
+    /// The program.
+    pub program: ncsmooth_gcode::Program,
+    /// Its bytes as read.
+    pub src: Vec<u8>,
+}
+
 /// Reads and parses an input; parse errors are rendered to stderr and returned.
-pub fn load(path: &str) -> Result<ncsmooth_gcode::Program> {
+pub fn load(path: &str) -> Result<Loaded> {
     let src = io::read_input(path)?;
     let name = io::display_name(path);
     match ncsmooth_gcode::parse_bytes(&src, name, &ncsmooth_gcode::ParseOptions::default()) {
-        Ok(p) => Ok(p),
+        Ok(program) => Ok(Loaded { program, src }),
         Err(err) => {
             diag::report_parse_error(&err, &src);
             Err(err.into())

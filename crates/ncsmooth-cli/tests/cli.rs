@@ -380,12 +380,12 @@ fn smooth_measures_the_written_text() {
     );
     let out = d.join("out.ngc");
     let rep = d.join("r.json");
-    let smooth = |decimals: &str, tol: &str| {
+    let smooth = |method: &str, decimals: &str, tol: &str| {
         run(&[
             "smooth",
             f.to_str().unwrap(),
             "--method",
-            "none",
+            method,
             "--decimals",
             decimals,
             "--tol",
@@ -396,15 +396,38 @@ fn smooth_measures_the_written_text() {
             rep.to_str().unwrap(),
         ])
     };
-    let o = smooth("1", "0.2");
+    let deviation = || -> f64 {
+        let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+        let d = &r["deviation"];
+        d["vertex_to_output_mm"]
+            .as_f64()
+            .unwrap()
+            .max(d["output_to_programmed_mm"].as_f64().unwrap())
+    };
+    // `none` copies the program: nothing is rounded, the deviation is zero.
+    let o = smooth("none", "1", "0.2");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
-    // X1.44 is written as X1.4: the vertex (1.44, 1.44) is 0.04 * sqrt(2) from the output.
-    let v = r["deviation"]["vertex_to_output_mm"].as_f64().unwrap();
-    assert!((v - 0.04 * 2f64.sqrt()).abs() < 1e-3, "{v}");
+    assert_eq!(deviation(), 0.0);
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.ends_with("G21 G90\nG0 X0 Y0\nG1 X1.44 Y0 F600\nG1 X1.44 Y1.44\n"),
+        "{text}"
+    );
+    // A smoothed corner written with 1 decimal: the measured deviation includes the
+    // rounding, so it differs from the same corner written with 6.
+    let o = smooth("bspline", "6", "0.2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let fine = deviation();
+    let o = smooth("bspline", "1", "0.2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let coarse = deviation();
+    assert!(
+        coarse <= 0.2 && (coarse - fine).abs() > 1e-3,
+        "{fine} {coarse}"
+    );
     std::fs::remove_file(&out).unwrap();
     std::fs::remove_file(&rep).unwrap();
-    let o = smooth("1", "0.05");
+    let o = smooth("bspline", "1", "0.05");
     assert_eq!(
         o.status.code(),
         Some(2),

@@ -46,6 +46,9 @@ pub enum ParseErrorKind {
     /// A `(` comment without its `)` on the same line.
     #[error("unclosed '(' comment")]
     UnclosedComment,
+    /// A `(` inside a `( )` comment (LinuxCNC refuses it).
+    #[error("'(' inside a comment (comments do not nest)")]
+    NestedComment,
     /// A character that cannot start a word.
     #[error("unexpected character {ch:?}")]
     UnexpectedChar {
@@ -148,6 +151,37 @@ pub enum ParseErrorKind {
     /// A computed value or position is not finite.
     #[error("value out of range")]
     OutOfRange,
+    /// A parameter word no code of its block uses (`G61 R0.5`): LinuxCNC refuses it.
+    #[error("{letter} word with no code in the block that uses it")]
+    UnusedWord {
+        /// The letter.
+        letter: char,
+    },
+    /// A feed move with no feed rate in force (no F yet, or F0): LinuxCNC and grbl refuse
+    /// it.
+    #[error("feed move with no feed rate (program an F word before the first G1/G2/G3)")]
+    NoFeedRate,
+    /// A named parameter read before any assignment (`#<depth>`).
+    #[error("named parameter #<{name}> is used before being set")]
+    UndefinedNamedParameter {
+        /// The name, lower case.
+        name: String,
+    },
+    /// A value that depends on machine state ncsmooth cannot know (a stored work offset,
+    /// a home position, a tool table entry) where the program needs it to be known: a
+    /// condition, a feed, a dwell, a canned-cycle depth.
+    #[error("{what} depends on machine state unknown to ncsmooth (stored offsets, home positions or tool data); run it on the controller, or compute the value in CAM")]
+    UnknownValue {
+        /// What needed the value (`condition of O100 if`, `F word`).
+        what: String,
+    },
+    /// Malformed or unmatched O-word control flow (`endwhile` without `while`, a `call`
+    /// to a subroutine the file does not define).
+    #[error("{why}")]
+    ControlFlow {
+        /// What is wrong.
+        why: String,
+    },
 }
 
 /// A non-fatal remark about the program.

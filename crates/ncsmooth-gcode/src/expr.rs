@@ -1,30 +1,41 @@
-//! Real values, `[ ]` expressions and numbered parameters, as RS274/NGC (LinuxCNC)
-//! defines them.
+//! Real values, `[ ]` expressions and parameters, as RS274/NGC (LinuxCNC) defines them.
 //!
 //! A *real value* is a number, `#n` (a numbered parameter, `n` itself a real value that
-//! must be an integer in `1..=5602`), a bracketed expression, or a unary function
+//! must be an integer in `1..=5602`), `#<name>` (a named parameter: local, or global when
+//! the name starts with `_`; white space inside the brackets is removed and case is
+//! ignored, as LinuxCNC does), a bracketed expression, or a unary function
 //! `ABS ACOS ASIN COS EXP FIX FUP LN ROUND SIN SQRT TAN` applied to a bracketed expression,
-//! or `ATAN[a]/[b]` (two-argument arctangent). A leading `+` or `-` is accepted before
-//! any real value (unary sign).
+//! `ATAN[a]/[b]` (two-argument arctangent) or `EXISTS[#<name>]` (1 when the named
+//! parameter is defined). A leading `+` or `-` is accepted before any real value.
 //!
 //! Binary operators, by decreasing precedence (left-associative within a level):
 //! `**`; `*` `/` `MOD`; `+` `-`; `EQ NE GT GE LT LE`; `AND OR XOR`. Trigonometry is in
 //! degrees, `ROUND` rounds half away from zero, `FIX` is floor, `FUP` ceiling, `MOD`
 //! is non-negative for a positive divisor (as LinuxCNC). Comparisons and logic yield 1 or
-//! 0. Any non-finite result (division by zero, `SQRT[-1]`, `LN[0]`, overflow) is an
-//! [`ExpressionError`](ParseErrorKind::ExpressionError).
+//! 0. Any non-finite result of known operands (division by zero, `SQRT[-1]`, `LN[0]`,
+//! overflow) is an [`ExpressionError`](ParseErrorKind::ExpressionError).
+//!
+//! # Unknown values
+//!
+//! Some parameters hold machine state that ncsmooth cannot know: the stored work offsets
+//! (`#5221`..), home positions (`#5161`..), tool table entries, the position after a
+//! `G53` move. Their lookup returns [`UNKNOWN`] (a NaN), which propagates through every
+//! operator and function instead of being an error. The interpreter decides what an
+//! unknown value means where it is used: an axis word makes that axis's position unknown,
+//! a condition or any other word is an error naming the parameter.
 //!
 //! Parameters are evaluated with the values they had before the line (NGC: assignments
-//! on a line take effect after the whole line is read). Reading a parameter that the
-//! program never set is an [`UndefinedParameter`](ParseErrorKind::UndefinedParameter)
-//! error: a controller would use a value from its persistent parameter file, which
-//! ncsmooth cannot know. Named parameters `#<name>` are refused as unsupported.
+//! on a line take effect after the whole line is read). Reading a numbered parameter that
+//! the program never set is an [`UndefinedParameter`](ParseErrorKind::UndefinedParameter)
+//! error unless the lookup supplies a value (LinuxCNC reads its persistent parameter
+//! file, which ncsmooth cannot know; a known-machine model supplies zeros).
 //!
 //! Nesting (brackets, `#` chains, signs) is limited to [`MAX_DEPTH`] so that hostile input
 //! cannot overflow the stack.
 
 use crate::error::ParseErrorKind;
 use crate::lexer::{Cursor, LexError};
+use std::collections::HashMap;
 
 /// Deepest nesting of brackets, parameter references and signs.
 pub const MAX_DEPTH: u32 = 64;
@@ -32,10 +43,28 @@ pub const MAX_DEPTH: u32 = 64;
 /// Highest numbered parameter (LinuxCNC's `RS274NGC_MAX_PARAMETERS - 1`).
 pub const MAX_PARAM: u32 = 5602;
 
-/// Numbered parameter store.
+/// Longest parameter name (LinuxCNC's `LINELEN`-bounded names are far shorter in practice).
+pub const MAX_NAME_LEN: usize = 255;
+
+/// The value of a parameter that holds machine state ncsmooth cannot know. It is a NaN:
+/// arithmetic on it stays unknown.
+pub const UNKNOWN: f64 = f64::NAN;
+
+/// Where parameter values come from while a line is evaluated.
+pub trait ParamLookup {
+    /// `#index`: `None` when never set, [`UNKNOWN`] when it holds unknown machine state.
+    fn numbered(&self, index: u32) -> Option<f64>;
+    /// `#<name>` (`name` upper case, without brackets or white space): `None` when not
+    /// defined.
+    fn named(&self, name: &[u8]) -> Option<f64>;
+}
+
+/// A plain parameter store: numbered parameters and named ones in one flat scope (what
+/// the interpreter's scoped store reduces to for a single line; also used in tests).
 #[derive(Clone, Debug, Default)]
 pub struct Params {
     values: Vec<Option<f64>>,
+    named: HashMap<Box<[u8]>, f64>,
 }
 
 impl Params {
@@ -50,6 +79,27 @@ impl Params {
             self.values.resize(i + 1, None);
         }
         self.values[i] = Some(value);
+    }
+    /// The value of `#<name>` (upper case), if it was set.
+    pub fn get_named(&self, name: &[u8]) -> Option<f64> {
+        self.named.get(name).copied()
+    }
+    /// Sets `#<name>` (upper case).
+    pub fn set_named(&mut self, name: &[u8], value: f64) {
+        self.named.insert(name.into(), value);
+    }
+    /// Removes every named parameter.
+    pub fn clear_named(&mut self) {
+        self.named.clear();
+    }
+}
+
+impl ParamLookup for Params {
+    fn numbered(&self, index: u32) -> Option<f64> {
+        self.get(index)
+    }
+    fn named(&self, name: &[u8]) -> Option<f64> {
+        self.get_named(name)
     }
 }
 
@@ -70,24 +120,71 @@ fn expr_err(c: &Cursor<'_>, why: &'static str, start: usize) -> LexError {
     )
 }
 
-fn finite(c: &Cursor<'_>, v: f64, start: usize) -> Result<f64, LexError> {
+/// `v` when finite or unknown (NaN from an unknown operand); an error otherwise.
+fn finite(c: &Cursor<'_>, v: f64, start: usize, unknown_input: bool) -> Result<f64, LexError> {
     if v.is_finite() {
         Ok(v)
+    } else if unknown_input {
+        Ok(UNKNOWN)
     } else {
         Err(expr_err(c, "result is not a finite number", start))
     }
 }
 
-const FUNCS: [&[u8]; 13] = [
-    b"ABS", b"ACOS", b"ASIN", b"ATAN", b"COS", b"EXP", b"FIX", b"FUP", b"LN", b"ROUND", b"SIN",
-    b"SQRT", b"TAN",
+const FUNCS: [&[u8]; 14] = [
+    b"ABS", b"ACOS", b"ASIN", b"ATAN", b"COS", b"EXISTS", b"EXP", b"FIX", b"FUP", b"LN", b"ROUND",
+    b"SIN", b"SQRT", b"TAN",
 ];
+
+/// Reads `<name>` at the cursor (which is on the `<`): the upper-case name, white space
+/// already removed by the lexer. The cursor ends after the `>`.
+pub(crate) fn read_name<'c>(c: &mut Cursor<'c>) -> Result<&'c [u8], LexError> {
+    let start = c.pos;
+    let buf: &'c [u8] = c.buf;
+    let rest = &buf[start + 1..];
+    let Some(len) = rest.iter().position(|&b| b == b'>') else {
+        return Err(expr_err(c, "named parameter without closing '>'", start));
+    };
+    if len == 0 || len > MAX_NAME_LEN {
+        return Err(expr_err(c, "empty or over-long parameter name", start));
+    }
+    c.pos = start + len + 2;
+    Ok(&rest[..len])
+}
+
+/// Reads `#n` or `#<name>` at the cursor (on the `#`) and returns its value.
+fn read_param<P: ParamLookup>(c: &mut Cursor<'_>, params: &P, depth: u32) -> Result<f64, LexError> {
+    let start = c.pos;
+    c.pos += 1;
+    if c.peek() == Some(b'<') {
+        let name = read_name(c)?;
+        return params.named(name).ok_or_else(|| {
+            c.error(
+                ParseErrorKind::UndefinedNamedParameter {
+                    name: String::from_utf8_lossy(name).to_lowercase(),
+                },
+                start,
+                c.pos,
+            )
+        });
+    }
+    let idx_start = c.pos;
+    let i = read_real_value(c, params, depth + 1, None)?;
+    if i.is_nan() {
+        return Ok(UNKNOWN);
+    }
+    let index =
+        param_index(i).ok_or_else(|| c.error(ParseErrorKind::OutOfRange, idx_start, c.pos))?;
+    params
+        .numbered(index)
+        .ok_or_else(|| c.error(ParseErrorKind::UndefinedParameter { index }, start, c.pos))
+}
 
 /// Reads a real value at the cursor. `letter` is the word letter it belongs to (for
 /// the "missing value" error), `None` inside expressions.
-pub(crate) fn read_real_value(
+pub(crate) fn read_real_value<P: ParamLookup>(
     c: &mut Cursor<'_>,
-    params: &Params,
+    params: &P,
     depth: u32,
     letter: Option<u8>,
 ) -> Result<f64, LexError> {
@@ -125,26 +222,7 @@ pub(crate) fn read_real_value(
             expect_close(c, start)?;
             v
         }
-        Some(b'#') => {
-            if c.peek_at(1) == Some(b'<') {
-                return Err(c.error(
-                    ParseErrorKind::Unsupported {
-                        word: "#<name>".into(),
-                        why: "named parameters are not supported (only numbered #n)",
-                    },
-                    c.pos,
-                    c.pos + 2,
-                ));
-            }
-            c.pos += 1;
-            let idx_start = c.pos;
-            let i = read_real_value(c, params, depth + 1, None)?;
-            let index = param_index(i)
-                .ok_or_else(|| c.error(ParseErrorKind::OutOfRange, idx_start, c.pos))?;
-            params.get(index).ok_or_else(|| {
-                c.error(ParseErrorKind::UndefinedParameter { index }, start, c.pos)
-            })?
-        }
+        Some(b'#') => read_param(c, params, depth)?,
         Some(b'A'..=b'Z') => {
             let Some(name) = FUNCS.iter().find(|f| c.starts_with(f)) else {
                 return Err(missing(c));
@@ -155,6 +233,27 @@ pub(crate) fn read_real_value(
                 return Err(missing(c));
             }
             c.pos += name.len() + 1;
+            if *name == b"EXISTS" {
+                // EXISTS[#<name>]: whether the named parameter is defined; EXISTS[#n]:
+                // whether n is a parameter number.
+                if c.peek() != Some(b'#') {
+                    return Err(expr_err(
+                        c,
+                        "EXISTS needs a parameter: EXISTS[#<name>]",
+                        start,
+                    ));
+                }
+                c.pos += 1;
+                let defined = if c.peek() == Some(b'<') {
+                    params.named(read_name(c)?).is_some()
+                } else {
+                    let i = read_real_value(c, params, depth + 1, None)?;
+                    param_index(i).is_some()
+                };
+                expect_close(c, start)?;
+                let v = if defined { 1.0 } else { 0.0 };
+                return Ok(if neg { -v } else { v });
+            }
             let a = read_expr(c, params, depth + 1)?;
             expect_close(c, start)?;
             let v = match *name {
@@ -166,7 +265,7 @@ pub(crate) fn read_real_value(
                 b"FIX" => a.floor(),
                 b"FUP" => a.ceil(),
                 b"LN" => {
-                    if a <= 0.0 {
+                    if a <= 0.0 && !a.is_nan() {
                         return Err(expr_err(c, "LN of a non-positive number", start));
                     }
                     a.ln()
@@ -174,7 +273,7 @@ pub(crate) fn read_real_value(
                 b"ROUND" => a.round(),
                 b"SIN" => a.to_radians().sin(),
                 b"SQRT" => {
-                    if a < 0.0 {
+                    if a < 0.0 && !a.is_nan() {
                         return Err(expr_err(c, "SQRT of a negative number", start));
                     }
                     a.sqrt()
@@ -188,10 +287,14 @@ pub(crate) fn read_real_value(
                     c.pos += 2;
                     let b = read_expr(c, params, depth + 1)?;
                     expect_close(c, start)?;
-                    a.atan2(b).to_degrees()
+                    if b.is_nan() {
+                        UNKNOWN
+                    } else {
+                        a.atan2(b).to_degrees()
+                    }
                 }
             };
-            finite(c, v, start)?
+            finite(c, v, start, a.is_nan())?
         }
         Some(_) => return Err(missing(c)),
     };
@@ -270,6 +373,10 @@ fn read_op(c: &mut Cursor<'_>) -> Option<Op> {
 }
 
 fn apply(c: &Cursor<'_>, op: Op, a: f64, b: f64, start: usize) -> Result<f64, LexError> {
+    if a.is_nan() || b.is_nan() {
+        // An unknown operand makes the result unknown, comparisons included.
+        return Ok(UNKNOWN);
+    }
     let t = |x: bool| if x { 1.0 } else { 0.0 };
     let v = match op {
         Op::Pow => a.powf(b),
@@ -303,12 +410,12 @@ fn apply(c: &Cursor<'_>, op: Op, a: f64, b: f64, start: usize) -> Result<f64, Le
         Op::Or => t(a != 0.0 || b != 0.0),
         Op::Xor => t((a != 0.0) != (b != 0.0)),
     };
-    finite(c, v, start)
+    finite(c, v, start, false)
 }
 
 /// Reads the inside of `[ ]` (without the brackets): operands and binary operators,
 /// evaluated with an operator stack (shunting-yard, no recursion per operator).
-fn read_expr(c: &mut Cursor<'_>, params: &Params, depth: u32) -> Result<f64, LexError> {
+fn read_expr<P: ParamLookup>(c: &mut Cursor<'_>, params: &P, depth: u32) -> Result<f64, LexError> {
     let start = c.pos;
     let mut vals: Vec<f64> = Vec::new();
     let mut ops: Vec<Op> = Vec::new();

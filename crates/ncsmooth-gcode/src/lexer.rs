@@ -9,11 +9,15 @@
 //!    (space, tab, CR, VT, FF), `( )` comments and everything after `;`, upper-casing ASCII
 //!    letters, and records for every kept byte its offset in the source (for error spans).
 //!    A `(` without `)` on the same line is an [`UnclosedComment`](ParseErrorKind::UnclosedComment)
-//!    error. A leading `/` (block delete) is dropped: ncsmooth keeps block-delete blocks,
-//!    as a controller does with its block-delete switch off. A line whose first
-//!    character is `%` is a program delimiter and is empty.
+//!    error. A leading `/` (block delete) is dropped and recorded
+//!    ([`LineBuf::block_delete`]). A line whose first character is `%` is a program
+//!    delimiter ([`LineBuf::percent`]) and is empty. The source range of the last `( )`
+//!    comment of the line is recorded ([`LineBuf::comment`]): LinuxCNC passes that one to
+//!    the controller (`COMMENT`, or a message for `(MSG,...)` and the other active
+//!    comments). `;` comments are recorded ([`LineBuf::semicolon`]) and never interpreted.
 //! 2. `read_block` splits the compacted bytes into words (a letter and a real value) and
-//!    `#n=value` parameter assignments. Values are numbers, `#n` references, `[ ]`
+//!    `#n=value` / `#<name>=value` parameter assignments. O-word statements (control flow)
+//!    are read by [`crate::interp::oword`], not here. Values are numbers, `#n` references, `[ ]`
 //!    expressions or unary functions ([`crate::expr`]). Numbers are `digits[.digits]` or
 //!    `.digits` (no exponent, as NGC) and are converted with `str::parse::<f64>` on the
 //!    digits, so `X1234.56789` is exactly the nearest `f64`.
@@ -25,7 +29,7 @@
 //! `X1 E3` with a space.
 
 use crate::error::ParseErrorKind;
-use crate::expr::{read_real_value, Params};
+use crate::expr::{read_name, read_real_value, ParamLookup};
 
 /// One line with white space and comments removed, upper case, plus a source map.
 #[derive(Default)]
@@ -36,6 +40,17 @@ pub(crate) struct LineBuf {
     pub map: Vec<usize>,
     /// Source byte offset of the end of the line (before the `\n`).
     pub line_end: usize,
+    /// The line starts with `/` (block delete).
+    pub block_delete: bool,
+    /// The line is a `%` program delimiter.
+    pub percent: bool,
+    /// Source byte range of the content of the last `( )` comment (without the
+    /// parentheses).
+    pub comment: Option<(usize, usize)>,
+    /// Number of `( )` comments on the line.
+    pub paren_comments: u32,
+    /// Source byte offset of a `;` comment.
+    pub semicolon: Option<usize>,
 }
 
 /// A lexical error with its source byte range.
@@ -60,6 +75,11 @@ pub(crate) fn compact_line(
     out.bytes.clear();
     out.map.clear();
     out.line_end = line_start + line.len();
+    out.block_delete = false;
+    out.percent = false;
+    out.comment = None;
+    out.paren_comments = 0;
+    out.semicolon = None;
     let mut i = 0;
     // Leading white space, then `%` (program delimiter) or `/` (block delete).
     while i < line.len() && is_space(line[i]) {
@@ -67,16 +87,34 @@ pub(crate) fn compact_line(
     }
     if i < line.len() {
         match line[i] {
-            b'%' => return Ok(()),
-            b'/' => i += 1,
+            b'%' => {
+                out.percent = true;
+                return Ok(());
+            }
+            b'/' => {
+                out.block_delete = true;
+                i += 1;
+            }
             _ => {}
         }
     }
     while i < line.len() {
         let b = line[i];
         match b {
-            b'(' => match line[i + 1..].iter().position(|&c| c == b')') {
-                Some(p) => i += p + 2,
+            b'(' => match line[i + 1..].iter().position(|&c| c == b')' || c == b'(') {
+                Some(p) if line[i + 1 + p] == b'(' => {
+                    // LinuxCNC: "nested comment found".
+                    return Err(LexError {
+                        kind: ParseErrorKind::NestedComment,
+                        start: line_start + i + 1 + p,
+                        end: line_start + i + 2 + p,
+                    });
+                }
+                Some(p) => {
+                    out.comment = Some((line_start + i + 1, line_start + i + 1 + p));
+                    out.paren_comments += 1;
+                    i += p + 2;
+                }
                 None => {
                     return Err(LexError {
                         kind: ParseErrorKind::UnclosedComment,
@@ -85,7 +123,10 @@ pub(crate) fn compact_line(
                     })
                 }
             },
-            b';' => break,
+            b';' => {
+                out.semicolon = Some(line_start + i);
+                break;
+            }
             _ if is_space(b) => i += 1,
             _ => {
                 out.bytes.push(b.to_ascii_uppercase());
@@ -230,18 +271,31 @@ pub(crate) struct Word {
     pub end: usize,
 }
 
-/// A pending `#n=value` assignment (applied after the line).
-#[derive(Clone, Copy, Debug)]
+/// What a parameter assignment sets.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum AssignTarget {
+    /// `#n`.
+    Numbered(u32),
+    /// `#<name>` (upper case).
+    Named(Box<[u8]>),
+}
+
+/// A pending `#n=value` or `#<name>=value` assignment (applied after the line).
+#[derive(Clone, Debug)]
 pub(crate) struct Assign {
-    pub index: u32,
+    pub target: AssignTarget,
     pub value: f64,
+    /// Source byte range of the assignment.
+    pub start: usize,
+    pub end: usize,
 }
 
 /// Splits a compacted line into words and parameter assignments. Values are evaluated
 /// with the parameters as they were before the line.
-pub(crate) fn read_block(
+pub(crate) fn read_block<P: ParamLookup>(
     line: &LineBuf,
-    params: &Params,
+    start_at: usize,
+    params: &P,
     words: &mut Vec<Word>,
     assigns: &mut Vec<Assign>,
 ) -> Result<(), LexError> {
@@ -251,27 +305,22 @@ pub(crate) fn read_block(
         buf: &line.bytes,
         map: &line.map,
         line_end: line.line_end,
-        pos: 0,
+        pos: start_at,
     };
     while let Some(b) = c.peek() {
         let start = c.pos;
         match b {
             b'#' => {
-                if c.peek_at(1) == Some(b'<') {
-                    return Err(c.error(
-                        ParseErrorKind::Unsupported {
-                            word: "#<name>".into(),
-                            why: "named parameters are not supported (only numbered #n)",
-                        },
-                        start,
-                        start + 2,
-                    ));
-                }
                 c.pos += 1;
-                let idx_start = c.pos;
-                let idx = read_real_value(&mut c, params, 0, None)?;
-                let index = crate::expr::param_index(idx)
-                    .ok_or_else(|| c.error(ParseErrorKind::OutOfRange, idx_start, c.pos))?;
+                let target = if c.peek() == Some(b'<') {
+                    AssignTarget::Named(read_name(&mut c)?.into())
+                } else {
+                    let idx_start = c.pos;
+                    let idx = read_real_value(&mut c, params, 0, None)?;
+                    let index = crate::expr::param_index(idx)
+                        .ok_or_else(|| c.error(ParseErrorKind::OutOfRange, idx_start, c.pos))?;
+                    AssignTarget::Numbered(index)
+                };
                 if c.peek() != Some(b'=') {
                     return Err(c.error(
                         ParseErrorKind::ExpressionError {
@@ -283,13 +332,17 @@ pub(crate) fn read_block(
                 }
                 c.pos += 1;
                 let value = read_real_value(&mut c, params, 0, Some(b'#'))?;
-                assigns.push(Assign { index, value });
+                assigns.push(Assign {
+                    target,
+                    value,
+                    start: c.src(start),
+                    end: c.src_end(c.pos),
+                });
             }
             b'O' => {
                 return Err(c.error(
-                    ParseErrorKind::Unsupported {
-                        word: "O-word".into(),
-                        why: "subroutines and control flow (O-codes) are not supported",
+                    ParseErrorKind::ControlFlow {
+                        why: "an O-word must start its block (after an optional N number)".into(),
                     },
                     start,
                     c.buf.len(),
@@ -380,10 +433,10 @@ mod tests {
     fn words(s: &str) -> Result<Vec<(char, f64)>, LexError> {
         let mut lb = LineBuf::default();
         compact_line(s.as_bytes(), 0, &mut lb)?;
-        let p = Params::default();
+        let p = crate::expr::Params::default();
         let mut w = Vec::new();
         let mut a = Vec::new();
-        read_block(&lb, &p, &mut w, &mut a)?;
+        read_block(&lb, 0, &p, &mut w, &mut a)?;
         Ok(w.iter().map(|w| (w.letter as char, w.value)).collect())
     }
 
@@ -469,10 +522,13 @@ mod tests {
         assert_eq!(e.start, 6);
         let e = words("G1 XY1").unwrap_err();
         assert_eq!(e.kind, ParseErrorKind::MissingValue { letter: 'X' });
-        let e = words("O100 sub").unwrap_err();
-        assert!(matches!(e.kind, ParseErrorKind::Unsupported { .. }));
+        let e = words("G1 O100 sub").unwrap_err();
+        assert!(matches!(e.kind, ParseErrorKind::ControlFlow { .. }));
         let e = words("G1 X#<foo>").unwrap_err();
-        assert!(matches!(e.kind, ParseErrorKind::Unsupported { .. }));
+        assert!(matches!(
+            e.kind,
+            ParseErrorKind::UndefinedNamedParameter { .. }
+        ));
         let e = words("G1 Xé").unwrap_err();
         assert_eq!(e.kind, ParseErrorKind::MissingValue { letter: 'X' });
     }

@@ -4,35 +4,61 @@
 //! model ([`ncsmooth::Toolpath`]).
 //!
 //! * [`parse_str`] / [`parse_bytes`]: a hand-written byte-level [`lexer`] (no regex, no
-//!   allocation per word), real-value [`expr`]essions with numbered parameters, and a
-//!   modal interpreter ([`parser`]) that produces lines, arcs (all three planes, helical,
-//!   multi-turn, I/J/K or R) and events, in millimetres. Errors are typed
-//!   ([`ParseErrorKind`]) and located (file, line, column, byte range); no input, however
-//!   malformed, makes the parser panic.
-//! * [`write()`]: the toolpath back to G-code ([`writer`]), flattening what G-code cannot
-//!   carry natively.
+//!   allocation per word), real-value [`expr`]essions with numbered and named parameters,
+//!   and a modal interpreter ([`interp`]) with LinuxCNC's semantics: O-word control flow,
+//!   coordinate systems and offsets, what is known of the position, lines, arcs (all three
+//!   planes, helical, multi-turn, I/J/K or R), canned cycles, splines, and events, in
+//!   millimetres. Errors are typed ([`ParseErrorKind`]) and located (file, line, column,
+//!   byte range); no input, however malformed, makes the parser panic.
+//! * [`rewrite()`]: a smoothed toolpath written back into the program's own text: every
+//!   line that is not smoothed motion is copied verbatim ([`mod@rewrite`]).
+//! * [`write()`]: a toolpath without source to G-code ([`writer`]), flattening what
+//!   G-code cannot carry natively.
 //!
 //! See each module for the rules and the decisions taken where the standard leaves room.
 #![forbid(unsafe_code)]
 
+pub mod canon;
 pub mod error;
 pub mod expr;
+pub mod interp;
 pub mod lexer;
-pub mod parser;
+pub mod rewrite;
+pub mod source;
 pub mod writer;
 
+pub use canon::Canon;
 pub use error::{ParseError, ParseErrorKind, Warning};
+pub use interp::frames::MachineModel;
 pub use ncsmooth::path::Units;
+pub use rewrite::{rewrite, RewriteOptions};
+pub use source::SourceMap;
 pub use writer::{write, write_to, WriteOptions};
 
-use ncsmooth::geom::Vec3;
 use ncsmooth::Toolpath;
 
 /// Parser settings.
 #[derive(Clone, Debug, PartialEq, Default)]
+#[non_exhaustive]
 pub struct ParseOptions {
-    /// Position before the first move (mm); the origin by default.
-    pub start: Vec3,
+    /// The machine's stored state (offsets, tool table, home positions, start position),
+    /// when it is known. Default `None`: unknown, as it is for a program ncsmooth rewrites;
+    /// positions are then known only where the program establishes them. A model (e.g.
+    /// [`MachineModel::default`], LinuxCNC's standalone interpreter) makes every position
+    /// known, for comparisons with LinuxCNC's canonical output.
+    pub machine: Option<MachineModel>,
+    /// Record the canonical commands ([`Program::canon`]). Default false.
+    pub canon: bool,
+}
+
+impl ParseOptions {
+    /// Options with a known machine model.
+    pub fn with_machine(machine: MachineModel) -> ParseOptions {
+        ParseOptions {
+            machine: Some(machine),
+            ..Default::default()
+        }
+    }
 }
 
 /// The active plane for arcs.
@@ -69,6 +95,11 @@ pub struct ParseStats {
     pub units_seen: Vec<Units>,
     /// Planes selected by the program (G17/G18/G19), in order of first appearance.
     pub planes_seen: Vec<Plane>,
+    /// Motions ncsmooth cannot place ([`ncsmooth::path::EventKind::Untracked`]: G53, G28,
+    /// moves from positions the program has not established).
+    pub untracked: usize,
+    /// Line and reason of the first of them.
+    pub untracked_first: Option<(u32, String)>,
     /// Warnings, in source order.
     pub warnings: Vec<Warning>,
 }
@@ -80,11 +111,15 @@ pub struct Program {
     pub toolpath: Toolpath,
     /// Counts and warnings.
     pub stats: ParseStats,
+    /// What each physical line is, for [`rewrite()`].
+    pub source: SourceMap,
+    /// Canonical commands, when [`ParseOptions::canon`] asked for them.
+    pub canon: Vec<Canon>,
 }
 
 /// Parses G-code text. `file_name` is only used in error messages.
 pub fn parse_str(src: &str, file_name: &str, opts: &ParseOptions) -> Result<Program, ParseError> {
-    parser::Interp::new(src, file_name, opts).run()
+    interp::Interp::new(src, file_name, opts).run()
 }
 
 /// Parses G-code bytes. Text in comments is never interpreted, so bytes that are not UTF-8

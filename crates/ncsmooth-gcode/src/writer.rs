@@ -23,8 +23,12 @@
 //!   (with a comment) because the writer always writes absolute E. After an event, extra
 //!   axes are rewritten on the next move (`G92 E0` may have reset them) and after an event
 //!   with an `F` word the feed is rewritten.
-//! * `G53` moves are written with `G53` and only the axes that the move changes (the
-//!   others are not in machine coordinates); the next move writes all its axes.
+//! * [`EventKind::Untracked`](ncsmooth::path::EventKind::Untracked) events (a G53 move,
+//!   a G28 return, a move from an unknown position) are written as their text (the
+//!   programmed block); the next move writes all its axes.
+//!
+//! The same motion writer ([`MotionWriter`]) serves [`crate::rewrite()`], which writes in
+//! the program's own units and modes and never writes an axis whose position is unknown.
 //!
 //! Numbers use `decimals` digits after the point (default 4), trailing zeros removed,
 //! never exponent notation and never `-0`. With 4 decimals the rounding is up to 5e-5 mm;
@@ -34,7 +38,7 @@
 
 use ncsmooth::decimal::POW10_U64;
 use ncsmooth::geom::{Arc, Flatten, ParamCurve, Segment, Vec3};
-use ncsmooth::path::{Block, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
+use ncsmooth::path::{Block, EventKind, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
 use std::fmt::{self, Write as _};
 
@@ -141,24 +145,6 @@ pub fn write(tp: &Toolpath, opts: &WriteOptions) -> String {
 
 /// Writes `tp` as G-code text into `out`.
 pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) -> fmt::Result {
-    let mut w = Writer {
-        opts,
-        out,
-        n: 0,
-        line: String::with_capacity(128),
-        scratch: String::with_capacity(32),
-        last_axis: Default::default(),
-        axis_known: [false; 3],
-        written: tp.start,
-        last_extra: Default::default(),
-        extra_known: [false; 7],
-        extra_mask: tp.extra_axes_mask,
-        last_extra_val: [0.0; 7],
-        last_f: String::new(),
-        f_known: false,
-        plane: 17,
-        points: Vec::new(),
-    };
     if let Some(h) = &opts.header {
         for l in h.lines() {
             let l: String = l
@@ -169,39 +155,109 @@ pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) 
                     c => c,
                 })
                 .collect();
-            writeln!(w.out, "({l})")?;
+            writeln!(out, "({l})")?;
         }
     }
+    let mut w = MotionWriter::new(
+        Frame {
+            decimals: opts.decimals.min(MAX_DECIMALS),
+            chord_mm: opts.chord_mm,
+            extra_mask: tp.extra_axes_mask,
+            ..Frame::default()
+        },
+        tp.start,
+    );
+    w.line_numbers = opts.line_numbers;
     w.begin();
     w.line.push_str("G21 G90 G94 G17");
-    w.end()?;
+    w.end(out)?;
     for b in &tp.blocks {
         match b {
             Block::Event(e) => {
                 w.begin();
-                if e.text.trim() == "M83" {
-                    w.line
-                        .push_str("M82 (M83 in the source: the writer writes absolute E)");
-                } else {
-                    w.line.push_str(&e.text);
+                match e.kind {
+                    EventKind::Comment => push_comment(&mut w.line, "", &e.text),
+                    EventKind::Message => push_comment(&mut w.line, "MSG,", &e.text),
+                    // Everything here is written in mm.
+                    EventKind::Units(_) => push_comment(&mut w.line, "source units ", &e.text),
+                    _ if e.text.trim() == "M83" => w
+                        .line
+                        .push_str("M82 (M83 in the source: the writer writes absolute E)"),
+                    _ => w.line.push_str(&e.text),
                 }
-                w.end()?;
-                w.extra_known = [false; 7];
+                w.end(out)?;
+                w.forget_extras();
                 if e.text.contains('F') {
-                    w.f_known = false;
+                    w.forget_feed();
+                }
+                if e.kind == EventKind::Untracked {
+                    w.forget_axes();
                 }
             }
-            Block::Move(m) => w.write_move(m)?,
+            Block::Move(m) => w.write_move(m, out)?,
         }
     }
     Ok(())
 }
 
-struct Writer<'a, W: fmt::Write> {
-    opts: &'a WriteOptions,
-    out: &'a mut W,
+/// Appends `(prefix text)`, with parentheses inside replaced by brackets.
+fn push_comment(line: &mut String, prefix: &str, text: &str) {
+    line.push('(');
+    line.push_str(prefix);
+    line.extend(text.chars().map(|c| match c {
+        '(' => '[',
+        ')' => ']',
+        c => c,
+    }));
+    line.push(')');
+}
+
+/// How a [`MotionWriter`] writes: units, modes and which axes it may write.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Frame {
+    /// Coordinate decimals.
+    pub decimals: usize,
+    /// Flattening chord (mm).
+    pub chord_mm: f64,
+    /// Millimetres per written unit (1 or 25.4).
+    pub scale: f64,
+    /// Bit `i` set when X/Y/Z `i` may be written (its position is known).
+    pub allowed_xyz: u8,
+    /// Arc centres as absolute coordinates (G90.1) rather than offsets.
+    pub arc_absolute: bool,
+    /// E words relative (M83).
+    pub e_relative: bool,
+    /// G7: X is written as a diameter.
+    pub diameter: bool,
+    /// Plane in force (17, 18, 19).
+    pub plane: u8,
+    /// Extra axes in use (bit per [`EXTRA_AXIS_NAMES`]).
+    pub extra_mask: u8,
+}
+
+impl Default for Frame {
+    fn default() -> Self {
+        Frame {
+            decimals: 4,
+            chord_mm: 0.001,
+            scale: 1.0,
+            allowed_xyz: 0b111,
+            arc_absolute: false,
+            e_relative: false,
+            diameter: false,
+            plane: 17,
+            extra_mask: 0,
+        }
+    }
+}
+
+/// Writes moves as G0/G1/G2/G3 lines: axis words only when their printed value changes,
+/// arcs on the planes G-code has, everything else flattened.
+pub(crate) struct MotionWriter {
+    pub frame: Frame,
+    pub line_numbers: bool,
     n: u64,
-    line: String,
+    pub line: String,
     scratch: String,
     last_axis: [String; 3],
     axis_known: [bool; 3],
@@ -209,15 +265,23 @@ struct Writer<'a, W: fmt::Write> {
     written: Vec3,
     last_extra: [String; 7],
     extra_known: [bool; 7],
-    extra_mask: u8,
+    /// Extra-axis values written last (for interpolation and relative E).
     last_extra_val: [f64; 7],
     last_f: String,
     f_known: bool,
-    plane: u8,
+    /// The last motion code written (0, 1, 2, 3), if any.
+    pub last_motion: Option<u8>,
     points: Vec<Vec3>,
+    /// An axis that may not be written would have had to change: (axis, value mm).
+    pub violation: Option<(char, f64)>,
 }
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
+
+/// Smallest arc radius written as G2/G3 (mm): twice LinuxCNC's zero-radius limit
+/// ([`crate::interp::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
+/// arcs are flattened.
+pub const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interp::motion::RADIUS_TOLERANCE_MM;
 
 /// Extra digits for the I/J/K centre offsets: the reader's centre is then essentially
 /// exact relative to the rounded end points, so the arc between them deviates from the
@@ -242,23 +306,112 @@ fn set_coord(v: &mut Vec3, i: usize, x: f64) {
     }
 }
 
-impl<W: fmt::Write> Writer<'_, W> {
-    /// Coordinate decimals, clamped to [`MAX_DECIMALS`].
-    fn decimals(&self) -> usize {
-        self.opts.decimals.min(MAX_DECIMALS)
+impl MotionWriter {
+    /// A writer at `start` (mm): the allowed axes are taken as already written there.
+    pub(crate) fn new(frame: Frame, start: Vec3) -> MotionWriter {
+        let mut w = MotionWriter {
+            frame,
+            line_numbers: false,
+            n: 0,
+            line: String::with_capacity(128),
+            scratch: String::with_capacity(32),
+            last_axis: Default::default(),
+            axis_known: [false; 3],
+            written: start,
+            last_extra: Default::default(),
+            extra_known: [false; 7],
+            last_extra_val: [0.0; 7],
+            last_f: String::new(),
+            f_known: false,
+            last_motion: None,
+            points: Vec::new(),
+            violation: None,
+        };
+        w.forget_axes();
+        w
     }
 
-    fn begin(&mut self) {
+    /// Coordinate decimals, clamped to [`MAX_DECIMALS`].
+    fn decimals(&self) -> usize {
+        self.frame.decimals.min(MAX_DECIMALS)
+    }
+
+    pub(crate) fn begin(&mut self) {
         self.line.clear();
-        if self.opts.line_numbers {
+        if self.line_numbers {
             self.n += 1;
             let _ = write!(self.line, "N{} ", self.n);
         }
     }
 
-    fn end(&mut self) -> fmt::Result {
-        self.out.write_str(&self.line)?;
-        self.out.write_char('\n')
+    pub(crate) fn end<W: fmt::Write>(&mut self, out: &mut W) -> fmt::Result {
+        out.write_str(&self.line)?;
+        out.write_char('\n')
+    }
+
+    /// The next move writes every axis (the position was changed by something else).
+    pub(crate) fn forget_axes(&mut self) {
+        self.axis_known = [false; 3];
+    }
+
+    /// The next move writes its extra axes again.
+    pub(crate) fn forget_extras(&mut self) {
+        self.extra_known = [false; 7];
+    }
+
+    /// The next feed move writes F again.
+    pub(crate) fn forget_feed(&mut self) {
+        self.f_known = false;
+    }
+
+    /// Sets the position the reader is at (mm), as if written: axes whose printed value
+    /// does not change are not written again.
+    pub(crate) fn assume_at(&mut self, p: Vec3, extra: Option<&[f64; 7]>) {
+        for i in 0..3 {
+            let v = self.mm_to_units(i, coord(p, i));
+            self.fmt(v);
+            std::mem::swap(&mut self.last_axis[i], &mut self.scratch);
+            self.axis_known[i] = true;
+        }
+        self.written = p;
+        if let Some(e) = extra {
+            self.last_extra_val = *e;
+            for i in 0..7 {
+                let v = self.extra_units(i, e[i]);
+                self.fmt(v);
+                std::mem::swap(&mut self.last_extra[i], &mut self.scratch);
+                self.extra_known[i] = true;
+            }
+        }
+    }
+
+    /// Axis value `v` (mm) in written units.
+    fn mm_to_units(&self, i: usize, v: f64) -> f64 {
+        let v = v / self.frame.scale;
+        if i == 0 && self.frame.diameter {
+            2.0 * v
+        } else {
+            v
+        }
+    }
+
+    /// Written units back to mm.
+    fn units_to_mm(&self, i: usize, v: f64) -> f64 {
+        let v = if i == 0 && self.frame.diameter {
+            v / 2.0
+        } else {
+            v
+        };
+        v * self.frame.scale
+    }
+
+    /// Extra axis `i` (A B C U V W E) in written units.
+    fn extra_units(&self, i: usize, v: f64) -> f64 {
+        if i < 3 {
+            v
+        } else {
+            v / self.frame.scale
+        }
     }
 
     /// Formats `v` into the scratch buffer.
@@ -268,9 +421,22 @@ impl<W: fmt::Write> Writer<'_, W> {
         push_fixed(&mut self.scratch, v, decimals);
     }
 
-    /// Appends axis `i` = `v` when forced or changed; updates the written position.
+    fn allowed(&self, i: usize) -> bool {
+        self.frame.allowed_xyz & (1 << i) != 0
+    }
+
+    /// Appends axis `i` = `v` (mm) when forced or changed; updates the written position.
+    /// An axis that may not be written is never written: if its value would change, the
+    /// violation is recorded.
     fn axis(&mut self, i: usize, v: f64, force: bool) -> bool {
-        self.fmt(v);
+        let u = self.mm_to_units(i, v);
+        self.fmt(u);
+        if !self.allowed(i) {
+            if self.axis_known[i] && self.scratch != self.last_axis[i] && self.violation.is_none() {
+                self.violation = Some((AXIS_LETTERS[i], v));
+            }
+            return false;
+        }
         if force || !self.axis_known[i] || self.scratch != self.last_axis[i] {
             self.line.push(' ');
             self.line.push(AXIS_LETTERS[i]);
@@ -284,13 +450,13 @@ impl<W: fmt::Write> Writer<'_, W> {
         }
     }
 
-    /// The position the reader computes: the written (rounded) coordinates.
+    /// The position the reader computes: the written (rounded) coordinates (mm).
     fn written_pos(&self) -> Vec3 {
         let mut p = self.written;
         for i in 0..3 {
             if self.axis_known[i] {
                 if let Ok(v) = self.last_axis[i].parse() {
-                    set_coord(&mut p, i, v);
+                    set_coord(&mut p, i, self.units_to_mm(i, v));
                 }
             }
         }
@@ -300,10 +466,25 @@ impl<W: fmt::Write> Writer<'_, W> {
     fn extras(&mut self, e: Option<&[f64; 7]>) {
         let Some(e) = e else { return };
         for i in 0..7 {
-            if self.extra_mask & (1 << i) == 0 {
+            if self.frame.extra_mask & (1 << i) == 0 {
                 continue;
             }
-            self.fmt(e[i]);
+            let relative_e = i == 6 && self.frame.e_relative;
+            if relative_e {
+                // M83: the word is the increment from what was written last.
+                let d = self.extra_units(i, e[i] - self.last_extra_val[i]);
+                self.fmt(d);
+                if self.scratch != "0" {
+                    self.line.push_str(" E");
+                    self.line.push_str(&self.scratch);
+                    // Track the rounded increment so that errors do not accumulate.
+                    let written: f64 = self.scratch.parse().unwrap_or(0.0);
+                    self.last_extra_val[i] += written * self.frame.scale;
+                }
+                continue;
+            }
+            let v = self.extra_units(i, e[i]);
+            self.fmt(v);
             if !self.extra_known[i] || self.scratch != self.last_extra[i] {
                 self.line.push(' ');
                 self.line.push(EXTRA_AXIS_NAMES[i]);
@@ -320,7 +501,7 @@ impl<W: fmt::Write> Writer<'_, W> {
             return;
         }
         if let Some(f) = m.feed_mm_s {
-            self.fmt(f * 60.0);
+            self.fmt(f * 60.0 / self.frame.scale);
             if !self.f_known || self.scratch != self.last_f {
                 self.line.push_str(" F");
                 self.line.push_str(&self.scratch);
@@ -330,79 +511,60 @@ impl<W: fmt::Write> Writer<'_, W> {
         }
     }
 
-    fn motion_word(m: &Move) -> &'static str {
-        if m.kind == MoveKind::Rapid {
-            "G0"
-        } else {
-            "G1"
-        }
+    /// The feed last written (units per minute), if any.
+    pub(crate) fn last_feed(&self) -> Option<f64> {
+        self.f_known.then(|| self.last_f.parse().ok()).flatten()
     }
 
-    fn linear(&mut self, m: &Move, p: Vec3, extra: Option<&[f64; 7]>) -> fmt::Result {
+    /// Writes a G0/G1 to `p`. A move whose every printed coordinate is unchanged is not
+    /// written (the reader would run a zero-length block); its feed goes with the next.
+    fn linear<W: fmt::Write>(
+        &mut self,
+        m: &Move,
+        p: Vec3,
+        extra: Option<&[f64; 7]>,
+        out: &mut W,
+    ) -> fmt::Result {
         self.begin();
-        self.line.push_str(Self::motion_word(m));
-        let mut any = false;
+        let code = if m.kind == MoveKind::Rapid { 0 } else { 1 };
+        let _ = write!(self.line, "G{code}");
+        let bare = self.line.len();
         for i in 0..3 {
-            any |= self.axis(i, coord(p, i), false);
-        }
-        if !any {
-            // A move must carry an axis word; repeat X.
-            self.axis(0, p.x, true);
+            self.axis(i, coord(p, i), false);
         }
         self.extras(extra);
+        if self.line.len() == bare {
+            return Ok(());
+        }
         self.feed(m);
-        self.end()
+        self.last_motion = Some(code);
+        self.end(out)
     }
 
-    fn write_move(&mut self, m: &Move) -> fmt::Result {
-        if m.machine_coords {
-            return self.g53(m);
-        }
+    /// Writes one move (lines and native arcs as such, everything else flattened).
+    pub(crate) fn write_move<W: fmt::Write>(&mut self, m: &Move, out: &mut W) -> fmt::Result {
         match &m.segment {
-            Segment::Line(l) => self.linear(m, l.p1, m.extra.as_ref()),
+            Segment::Line(l) => self.linear(m, l.p1, m.extra.as_ref(), out),
             Segment::Arc(a) => {
-                if !self.try_arc(m, a)? {
-                    self.flattened(m)?;
+                if !self.try_arc(m, a, out)? {
+                    self.flattened(m, out)?;
                 }
                 Ok(())
             }
-            _ => self.flattened(m),
+            _ => self.flattened(m, out),
         }
-    }
-
-    fn g53(&mut self, m: &Move) -> fmt::Result {
-        let (s, e) = (m.segment.start(), m.segment.end());
-        self.begin();
-        self.line.push_str("G53 ");
-        self.line.push_str(Self::motion_word(m));
-        let mut any = false;
-        for i in 0..3 {
-            if coord(s, i) != coord(e, i) {
-                self.axis(i, coord(e, i), true);
-                any = true;
-            }
-        }
-        if !any {
-            self.line.clear();
-            self.line
-                .push_str("(zero-length G53 move omitted: machine position unknown)");
-        } else {
-            self.extras(m.extra.as_ref());
-            self.feed(m);
-        }
-        self.end()?;
-        // The axes not written are where the machine is, which is not known in work
-        // coordinates: write every axis on the next move.
-        self.axis_known = [false; 3];
-        self.written = e;
-        Ok(())
     }
 
     /// Writes a native arc; false when it must be flattened instead.
-    fn try_arc(&mut self, m: &Move, a: &Arc) -> Result<bool, fmt::Error> {
+    fn try_arc<W: fmt::Write>(
+        &mut self,
+        m: &Move,
+        a: &Arc,
+        out: &mut W,
+    ) -> Result<bool, fmt::Error> {
         let n = a.normal();
         let close = |v: Vec3| (n - v).norm() <= 1e-9;
-        // (plane code, first axis, second axis, normal axis, G3?)
+        // (plane code, first axis, second axis, G3?)
         let (plane, i0, i1, ccw) = if close(Vec3::Z) {
             (17u8, 0, 1, true)
         } else if close(-Vec3::Z) {
@@ -418,11 +580,22 @@ impl<W: fmt::Write> Writer<'_, W> {
         } else {
             return Ok(false);
         };
-        let unit = 0.1f64.powi(self.decimals() as i32);
-        if a.radius.is_nan() || a.radius < 2.0 * unit || !a.sweep.is_finite() || a.sweep <= 0.0 {
+        let unit = 0.1f64.powi(self.decimals() as i32) * self.frame.scale;
+        let min_radius = (2.0 * unit).max(MIN_ARC_RADIUS_MM);
+        if a.radius.is_nan() || a.radius < min_radius || !a.sweep.is_finite() || a.sweep <= 0.0 {
             return Ok(false);
         }
         let normal_axis = 3 - i0 - i1;
+        // An arc needs both axes of its plane (and the normal one for a helix) writable,
+        // and no diameter-mode X.
+        let helix = (coord(a.eval(1.0), normal_axis) - coord(a.eval(0.0), normal_axis)).abs() > 0.0;
+        if !self.allowed(i0)
+            || !self.allowed(i1)
+            || (helix && !self.allowed(normal_axis))
+            || self.frame.diameter
+        {
+            return Ok(false);
+        }
         let turns = ((a.sweep / TAU) - 1e-9).ceil().max(1.0);
         if turns > 10_000.0 {
             return Ok(false);
@@ -436,21 +609,32 @@ impl<W: fmt::Write> Writer<'_, W> {
             set_coord(&mut end, i1, coord(start_written, i1));
         } else {
             // Would rounding make start and end coincide (a full circle for the reader)?
-            self.fmt(coord(end, i0));
+            let s0 = self.mm_to_units(i0, coord(end, i0));
+            self.fmt(s0);
             let e0: f64 = self.scratch.parse().unwrap_or(f64::NAN);
-            self.fmt(coord(end, i1));
+            let s1 = self.mm_to_units(i1, coord(end, i1));
+            self.fmt(s1);
             let e1: f64 = self.scratch.parse().unwrap_or(f64::NAN);
-            if e0 == coord(start_written, i0) && e1 == coord(start_written, i1) {
+            let w0 = self.mm_to_units(i0, coord(start_written, i0));
+            let w1 = self.mm_to_units(i1, coord(start_written, i1));
+            self.fmt(w0);
+            let w0: f64 = self.scratch.parse().unwrap_or(f64::NAN);
+            self.fmt(w1);
+            let w1: f64 = self.scratch.parse().unwrap_or(f64::NAN);
+            if e0 == w0 && e1 == w1 {
                 return Ok(false);
             }
         }
         self.begin();
-        if plane != self.plane {
+        if plane != self.frame.plane {
             let _ = write!(self.line, "G{plane} ");
-            self.plane = plane;
+            self.frame.plane = plane;
         }
         self.line.push_str(if ccw { "G3" } else { "G2" });
         for i in 0..3 {
+            if i == normal_axis && !self.allowed(i) {
+                continue;
+            }
             let force = i != normal_axis || !self.axis_known[i];
             self.axis(i, coord(end, i), force);
         }
@@ -461,11 +645,12 @@ impl<W: fmt::Write> Writer<'_, W> {
             }
             self.scratch.clear();
             let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
-            push_fixed(
-                &mut self.scratch,
-                coord(a.center, i) - coord(start_written, i),
-                decimals,
-            );
+            let c = if self.frame.arc_absolute {
+                coord(a.center, i)
+            } else {
+                coord(a.center, i) - coord(start_written, i)
+            };
+            push_fixed(&mut self.scratch, c / self.frame.scale, decimals);
             self.line.push(' ');
             self.line.push(CENTRE[i]);
             self.line.push_str(&self.scratch);
@@ -475,17 +660,18 @@ impl<W: fmt::Write> Writer<'_, W> {
         }
         self.extras(m.extra.as_ref());
         self.feed(m);
-        self.end()?;
+        self.last_motion = Some(if ccw { 3 } else { 2 });
+        self.end(out)?;
         Ok(true)
     }
 
-    fn flattened(&mut self, m: &Move) -> fmt::Result {
+    fn flattened<W: fmt::Write>(&mut self, m: &Move, out: &mut W) -> fmt::Result {
         let mut pts = std::mem::take(&mut self.points);
         pts.clear();
         let start = m.segment.start();
         pts.push(start);
-        let chord = if self.opts.chord_mm > 0.0 {
-            self.opts.chord_mm
+        let chord = if self.frame.chord_mm > 0.0 {
+            self.frame.chord_mm
         } else {
             0.001
         };
@@ -505,7 +691,7 @@ impl<W: fmt::Write> Writer<'_, W> {
                     std::array::from_fn(|i| e0[i] + (e1[i] - e0[i]) * t)
                 }
             });
-            r = self.linear(m, pts[k], extra.as_ref());
+            r = self.linear(m, pts[k], extra.as_ref(), out);
             if r.is_err() {
                 break;
             }

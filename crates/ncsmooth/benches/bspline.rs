@@ -37,7 +37,7 @@ fn chains(tp: &Toolpath) -> Vec<Vec<Move>> {
     let mut run = vec![];
     for b in &tp.blocks {
         match b {
-            Block::Move(m) if m.kind == MoveKind::Feed && !m.machine_coords => run.push(m.clone()),
+            Block::Move(m) if m.kind == MoveKind::Feed && !m.pinned => run.push(m.clone()),
             _ => {
                 if !run.is_empty() {
                     out.push(std::mem::take(&mut run));

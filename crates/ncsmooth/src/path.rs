@@ -42,9 +42,11 @@ pub struct Move {
     pub line: u32,
     /// Extra-axis end values, when the program uses extra axes.
     pub extra: Option<ExtraAxes>,
-    /// The move was programmed in machine coordinates (G53). The parser assumes a zero
-    /// work offset to place it; the writer re-emits G53.
-    pub machine_coords: bool,
+    /// Written as programmed: the move is never smoothed and ends every chain it touches
+    /// (a canned-cycle step, a move inside a subroutine or loop, a block-delete block, a
+    /// block that also carries words a rewrite would lose). A writer that has the source
+    /// copies its block verbatim.
+    pub pinned: bool,
 }
 
 impl Move {
@@ -56,7 +58,7 @@ impl Move {
             feed_mm_s,
             line,
             extra: None,
-            machine_coords: false,
+            pinned: false,
         }
     }
     /// A rapid move.
@@ -67,7 +69,7 @@ impl Move {
             feed_mm_s: None,
             line,
             extra: None,
-            machine_coords: false,
+            pinned: false,
         }
     }
     /// The same move attributes with another geometry.
@@ -113,7 +115,22 @@ pub enum EventKind {
         /// Extra-axis values after the reset.
         to: ExtraAxes,
     },
-    /// Anything else kept verbatim (other M codes, G92, G28, G54..G59, modal settings
+    /// A comment, `( )` (LinuxCNC passes the last one of a block to the controller as
+    /// `COMMENT`); the text is its content. No motion and no stop.
+    Comment,
+    /// An operator message or log line (`(MSG,...)`, `(DEBUG,...)`, `(PRINT,...)`), the
+    /// text as the controller shows it (parameters substituted). No motion and no stop.
+    Message,
+    /// Motion that cannot be placed in the work frame: a `G53` move, a `G28`/`G30` return,
+    /// a move from or to a position the program has not established (an axis never
+    /// commanded since the start, a frame change, a tool-length change). The controller
+    /// runs it; a planner stops before it and starts again from the next known position.
+    /// The text names the block; writers with the source copy it verbatim.
+    Untracked,
+    /// The program switches units (G20/G21). Geometry stays in mm; writers that keep the
+    /// program's units follow it. No motion and no stop.
+    Units(Units),
+    /// Anything else kept verbatim (other M codes, G92, G54..G59, modal settings
     /// that do not change the geometry, extra-axis-only moves, ...).
     Other,
 }

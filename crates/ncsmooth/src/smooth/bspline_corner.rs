@@ -450,7 +450,7 @@ impl Emitter<'_, '_> {
             feed_mm_s: feed,
             line: moves[self.cur_pos.index].line,
             extra: extra_at(self.chain, to),
-            machine_coords: false,
+            pinned: false,
         });
         self.cur_pos = to;
     }

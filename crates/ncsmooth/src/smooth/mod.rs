@@ -299,7 +299,7 @@ pub fn assemble(chain: &Chain<'_>, pieces: Vec<OutPiece>) -> Vec<Move> {
             feed_mm_s: feed,
             line: src.line,
             extra,
-            machine_coords: false,
+            pinned: false,
         });
     }
     out
@@ -384,7 +384,7 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
     };
     for b in &tp.blocks {
         match b {
-            Block::Move(m) if m.kind == MoveKind::Feed && !m.machine_coords => {
+            Block::Move(m) if m.kind == MoveKind::Feed && !m.pinned => {
                 if run.is_empty() {
                     run_start_extra = last_extra;
                 }

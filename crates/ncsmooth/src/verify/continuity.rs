@@ -136,7 +136,15 @@ pub fn continuity_joints(path: &Toolpath) -> (Continuity, Vec<Joint>) {
     let mut prev: Option<(usize, &crate::path::Move)> = None;
     let mut idx = 0usize;
     for b in &path.blocks {
-        let Block::Move(m) = b else { continue };
+        let m = match b {
+            Block::Move(m) => m,
+            // Motion ncsmooth cannot place: the next move starts a new path, no joint.
+            Block::Event(e) if e.kind == crate::path::EventKind::Untracked => {
+                prev = None;
+                continue;
+            }
+            Block::Event(_) => continue,
+        };
         if let Some((pi, pm)) = prev {
             let (class, gap, angle, jump) = joint(&pm.segment, &m.segment, pm.kind, m.kind);
             c.joints += 1;

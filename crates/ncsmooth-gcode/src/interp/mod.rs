@@ -1,0 +1,492 @@
+//! The modal interpreter: lines of G-code in, [`Toolpath`] out, as LinuxCNC's RS274/NGC
+//! interpreter means them.
+//!
+//! # Structure
+//!
+//! * [`Interp::run`] walks the physical lines with a program counter; O-word statements
+//!   ([`oword`]) move it (subroutines, loops, conditionals).
+//! * Each line is lexed ([`crate::lexer`]), its words sorted ([`block`]) and executed in
+//!   LinuxCNC's order of execution ([`modal`]): comment, feed mode, F, S, T, the M codes
+//!   (tool change, spindle, coolant, overrides, I/O, user codes), dwell, plane, units,
+//!   cutter compensation, tool length, coordinate system, path control, distance modes,
+//!   retract mode, the non-modal group (G10, G28, G30, G52, G92), motion ([`motion`],
+//!   canned cycles in [`cycles`], splines in [`splines`]), and last the program stops.
+//! * Positions and offsets live in [`frames`]: what ncsmooth cannot know (stored offsets,
+//!   the tool table, home positions) is unknown, and so is every axis that depends on it
+//!   until the program commands it again. Motion from or to an unknown position becomes
+//!   an [`EventKind::Untracked`] event: never smoothed or planned through, written as
+//!   programmed.
+//!
+//! The initial state is LinuxCNC's: G0 G17 G21 G40 G49 G54 G64 G80 G90 G91.1 G94 G97 G99,
+//! with M82 for printer files, no feed, and every axis unknown. Everything with a length is
+//! stored in mm whatever the program's units; the program's units are kept for writing.
+//!
+//! # Faithful output
+//!
+//! For every physical line the interpreter records ([`crate::source::SourceMap`]) whether
+//! it was executed, whether its motion may be replaced by smoothed motion (executed once at
+//! the top level, nothing else on the line), and the modal state after it, so that
+//! [`crate::rewrite`] can copy every other line verbatim. Moves of lines that may not be
+//! replaced are [`Move::pinned`](ncsmooth::path::Move::pinned): the smoothing leaves them
+//! exactly as programmed.
+
+pub(crate) mod block;
+pub(crate) mod comments;
+pub(crate) mod cycles;
+pub mod frames;
+pub(crate) mod modal;
+pub mod motion;
+pub(crate) mod oword;
+pub(crate) mod params;
+pub(crate) mod splines;
+
+use crate::canon::Canon;
+use crate::error::{ParseError, ParseErrorKind, Warning};
+use crate::expr::{ParamLookup, UNKNOWN};
+use crate::lexer::{compact_line, read_block, Assign, AssignTarget, LexError, LineBuf, Word};
+use crate::source::{flags, LineInfo, SourceMap, WriteState};
+use crate::{ParseOptions, ParseStats, Program};
+use block::{Code, N_SLOTS};
+use frames::{Frames, N_AXES};
+use modal::Modal;
+use ncsmooth::path::{Block, Event, EventKind, Toolpath, Units};
+
+/// Millimetres per inch.
+pub(crate) const MM_PER_INCH: f64 = 25.4;
+
+/// The interpreter.
+pub(crate) struct Interp<'a> {
+    pub(crate) src: &'a str,
+    pub(crate) file: &'a str,
+    pub(crate) opts: &'a ParseOptions,
+    /// Byte ranges of the physical lines (without line breaks).
+    pub(crate) lines: Vec<(usize, usize)>,
+    /// Index of the line being executed.
+    pub(crate) pc: usize,
+    /// Index of the next line to execute (set by control flow).
+    pub(crate) next_pc: usize,
+    // State.
+    pub(crate) m: Modal,
+    pub(crate) f: Frames,
+    /// Extruder (E) value, programmed units.
+    pub(crate) e: f64,
+    pub(crate) store: params::Store,
+    pub(crate) flow: oword::Flow,
+    /// The program ended (M2, M30, closing `%`).
+    pub(crate) ended: bool,
+    /// A `%` opened the program.
+    pub(crate) percent_open: bool,
+    /// The next move starts from a position a block-delete switch may have changed.
+    pub(crate) pin_next: bool,
+    // Output.
+    pub(crate) tp: Toolpath,
+    pub(crate) stats: ParseStats,
+    pub(crate) map: SourceMap,
+    pub(crate) canon: Option<Vec<Canon>>,
+    // Per-line scratch (reused).
+    pub(crate) line_no: u32,
+    pub(crate) lb: LineBuf,
+    pub(crate) words: Vec<Word>,
+    pub(crate) assigns: Vec<Assign>,
+    pub(crate) gcodes: Vec<Code>,
+    pub(crate) mcodes: Vec<Code>,
+    pub(crate) letters: [Option<usize>; N_SLOTS],
+    pub(crate) used: u32,
+    /// Index in `tp.blocks` where the current line's output starts.
+    pub(crate) line_first_block: usize,
+    /// The current line emitted an event.
+    pub(crate) line_events: bool,
+    /// The current line may not be replaced whatever its words (set by the handlers).
+    pub(crate) line_pinned: bool,
+}
+
+/// Position of the first `\n`.
+#[inline]
+fn memchr_newline(b: &[u8]) -> Option<usize> {
+    b.iter().position(|&c| c == b'\n')
+}
+
+impl<'a> Interp<'a> {
+    pub(crate) fn new(src: &'a str, file: &'a str, opts: &'a ParseOptions) -> Self {
+        let f = match &opts.machine {
+            Some(m) => Frames::known(m),
+            None => Frames::unknown(),
+        };
+        Interp {
+            src,
+            file,
+            opts,
+            lines: Vec::new(),
+            pc: 0,
+            next_pc: 0,
+            m: Modal::default(),
+            f,
+            e: 0.0,
+            store: params::Store::new(),
+            flow: oword::Flow::default(),
+            ended: false,
+            percent_open: false,
+            pin_next: false,
+            tp: Toolpath::new(ncsmooth::geom::Vec3::ZERO),
+            stats: ParseStats::default(),
+            map: SourceMap::default(),
+            canon: opts.canon.then(Vec::new),
+            line_no: 0,
+            lb: LineBuf::default(),
+            words: Vec::with_capacity(16),
+            assigns: Vec::new(),
+            gcodes: Vec::with_capacity(8),
+            mcodes: Vec::with_capacity(4),
+            letters: [None; N_SLOTS],
+            used: 0,
+            line_first_block: 0,
+            line_events: false,
+            line_pinned: false,
+        }
+    }
+
+    pub(crate) fn run(mut self) -> Result<Program, ParseError> {
+        let bytes = self.src.as_bytes();
+        self.stats.bytes = bytes.len();
+        let mut start = 0;
+        while start < bytes.len() {
+            let end = memchr_newline(&bytes[start..]).map_or(bytes.len(), |p| start + p);
+            self.lines.push((start, end));
+            start = end + 1;
+        }
+        self.stats.lines = self.lines.len();
+        // One block per line at most, give or take: reserve up front instead of growing
+        // (and copying) a vector of 200-byte blocks many times.
+        self.tp.blocks.reserve(self.lines.len() + 1);
+        self.map.lines = self
+            .lines
+            .iter()
+            .map(|&(start, end)| LineInfo {
+                start,
+                end,
+                ..Default::default()
+            })
+            .collect();
+        while self.pc < self.lines.len() && !self.ended {
+            self.next_pc = self.pc + 1;
+            self.exec_line()?;
+            self.pc = self.next_pc;
+        }
+        self.flow.check_closed(&self)?;
+        if let Some(&u) = self.stats.units_seen.first() {
+            self.tp.units = u;
+        }
+        let start = self
+            .tp
+            .moves()
+            .next()
+            .map(|m| ncsmooth::geom::ParamCurve::start(&m.segment))
+            .unwrap_or_default();
+        self.tp.start = start;
+        Ok(Program {
+            toolpath: self.tp,
+            stats: self.stats,
+            source: self.map,
+            canon: self.canon.unwrap_or_default(),
+        })
+    }
+
+    pub(crate) fn lex_err(&self, e: LexError) -> ParseError {
+        ParseError::at(self.file, self.src.as_bytes(), e.start..e.end, e.kind)
+    }
+
+    pub(crate) fn err_word(&self, w: usize, kind: ParseErrorKind) -> ParseError {
+        match self.words.get(w) {
+            Some(w) => ParseError::at(self.file, self.src.as_bytes(), w.start..w.end, kind),
+            None => self.err_line(kind),
+        }
+    }
+
+    pub(crate) fn err_line(&self, kind: ParseErrorKind) -> ParseError {
+        let (s, e) = match (self.words.first(), self.words.last()) {
+            (Some(a), Some(b)) => (a.start, b.end),
+            _ => {
+                let (s, e) = self.lines.get(self.pc).copied().unwrap_or((0, 0));
+                (s, e)
+            }
+        };
+        ParseError::at(self.file, self.src.as_bytes(), s..e, kind)
+    }
+
+    /// An error spanning source bytes `range`.
+    pub(crate) fn err_at(&self, range: std::ops::Range<usize>, kind: ParseErrorKind) -> ParseError {
+        ParseError::at(self.file, self.src.as_bytes(), range, kind)
+    }
+
+    pub(crate) fn warn(&mut self, message: impl Into<String>) {
+        self.stats.warnings.push(Warning {
+            line: self.line_no,
+            message: message.into(),
+        });
+    }
+
+    /// Millimetres per program unit.
+    #[inline]
+    pub(crate) fn scale(&self) -> f64 {
+        match self.m.units {
+            Units::Millimetres => 1.0,
+            Units::Inches => MM_PER_INCH,
+        }
+    }
+
+    /// True while executing inside a subroutine call or an O-word block.
+    #[inline]
+    pub(crate) fn nested(&self) -> bool {
+        self.store.depth() > 0 || self.flow.in_block()
+    }
+
+    /// Executes line `self.pc`.
+    fn exec_line(&mut self) -> Result<(), ParseError> {
+        let (start, end) = self.lines[self.pc];
+        self.line_no = u32::try_from(self.pc + 1).unwrap_or(u32::MAX);
+        let line = &self.src.as_bytes()[start..end];
+        compact_line(line, start, &mut self.lb).map_err(|e| self.lex_err(e))?;
+        self.line_first_block = self.tp.blocks.len();
+        self.line_events = false;
+        self.line_pinned = self.nested() || self.lb.block_delete;
+        self.words.clear();
+        self.assigns.clear();
+        let first_time = !self.map.lines[self.pc].has(flags::EXECUTED);
+        self.map.lines[self.pc].flags |= flags::EXECUTED;
+        if first_time {
+            self.map.lines[self.pc].before = self.write_state();
+        }
+        if self.lb.percent {
+            // A `%` line: the first one opens the program, the next one ends it.
+            if self.percent_open || self.has_executed_content() {
+                self.end_program();
+            } else {
+                self.percent_open = true;
+            }
+            return Ok(());
+        }
+        let body = oword::skip_line_number(&self.lb.bytes);
+        if self.lb.bytes.get(body) == Some(&b'O') {
+            // O-word statements run no comment (LinuxCNC).
+            self.map.lines[self.pc].flags |= flags::OWORD;
+            self.pin_last_move();
+            return self.o_statement(body);
+        }
+        // Comments and messages come first, as in LinuxCNC.
+        self.comment()?;
+        if !self.lb.bytes.is_empty() {
+            let (mut words, mut assigns) = (
+                std::mem::take(&mut self.words),
+                std::mem::take(&mut self.assigns),
+            );
+            let r = read_block(&self.lb, 0, &*self, &mut words, &mut assigns);
+            self.words = words;
+            self.assigns = assigns;
+            r.map_err(|e| self.lex_err(e))?;
+            if !self.words.is_empty() {
+                self.block()?;
+            }
+            self.assign_params()?;
+        }
+        self.finish_line(first_time);
+        Ok(())
+    }
+
+    /// Whether any line before this one did something (for the opening-`%` rule).
+    fn has_executed_content(&self) -> bool {
+        !self.tp.blocks.is_empty()
+    }
+
+    /// Applies the line's parameter assignments (after the line, as NGC says).
+    fn assign_params(&mut self) -> Result<(), ParseError> {
+        if self.assigns.is_empty() {
+            return Ok(());
+        }
+        self.line_pinned = true;
+        let assigns = std::mem::take(&mut self.assigns);
+        for a in &assigns {
+            match &a.target {
+                AssignTarget::Numbered(i) => self.store.set(*i, a.value),
+                AssignTarget::Named(n) => {
+                    if n.first() == Some(&b'_') && modal::is_predefined(n) {
+                        return Err(self.err_at(
+                            a.start..a.end,
+                            ParseErrorKind::ControlFlow {
+                                why: format!(
+                                    "#<{}> is a read-only predefined parameter",
+                                    String::from_utf8_lossy(n).to_lowercase()
+                                ),
+                            },
+                        ));
+                    }
+                    self.store.set_named(n, a.value)
+                }
+            }
+        }
+        self.assigns = assigns;
+        Ok(())
+    }
+
+    /// Records what the writer needs of the line just executed, and pins its moves when
+    /// the line may not be replaced.
+    fn finish_line(&mut self, first_time: bool) {
+        let axis_words = b"XYZABCUVWE@^".iter().any(|&l| self.has(l));
+        let explicit_motion = self.gcode(|c| block::g_modal_group(c) == Some(1) || c == 800);
+        let replaceable = first_time && !self.line_pinned && !self.line_events && {
+            let lb = &self.lb;
+            lb.paren_comments == 0 && lb.semicolon.is_none() && self.only_motion_words()
+        };
+        let state = self.write_state();
+        let info = &mut self.map.lines[self.pc];
+        if axis_words && explicit_motion.is_none() {
+            info.flags |= flags::MODAL_MOTION;
+        }
+        if explicit_motion.is_some() {
+            info.flags |= flags::EXPLICIT_MOTION;
+        }
+        if replaceable {
+            info.flags |= flags::REPLACEABLE;
+        } else {
+            for b in &mut self.tp.blocks[self.line_first_block..] {
+                if let Block::Move(mv) = b {
+                    mv.pinned = true;
+                }
+            }
+        }
+        if first_time {
+            info.state = state;
+        }
+    }
+
+    /// The block has only words a rewrite restores: motion codes G0-G3 and G5.x with their
+    /// axis, centre and spline words, plane, distance modes, G94, F and N.
+    fn only_motion_words(&self) -> bool {
+        let g_ok = self.gcodes.iter().all(|c| {
+            matches!(
+                c.code10,
+                0 | 10 | 20 | 30 | 50 | 51 | 170 | 180 | 190 | 900 | 910 | 901 | 911 | 940
+            )
+        });
+        let letters_ok = self.letters.iter().enumerate().all(|(i, s)| {
+            s.is_none()
+                || matches!(
+                    b"ABCDEFGHIJKLMNOPQRSTUVWXYZ@^"[i],
+                    b'X' | b'Y'
+                        | b'Z'
+                        | b'A'
+                        | b'B'
+                        | b'C'
+                        | b'U'
+                        | b'V'
+                        | b'W'
+                        | b'E'
+                        | b'I'
+                        | b'J'
+                        | b'K'
+                        | b'R'
+                        | b'P'
+                        | b'Q'
+                        | b'F'
+                        | b'@'
+                        | b'^'
+                )
+        });
+        g_ok && self.mcodes.is_empty() && letters_ok
+    }
+
+    /// The modal state a writer must restore after this line.
+    pub(crate) fn write_state(&self) -> WriteState {
+        WriteState {
+            units: self.m.units,
+            absolute: self.m.absolute,
+            arc_absolute: self.m.arc_absolute,
+            plane: self.m.plane,
+            diameter: self.m.diameter,
+            e_relative: self.m.e_relative,
+            motion10: self.m.motion,
+            feed_word: self.m.feed_word.unwrap_or(f64::NAN),
+            known: self.f.known,
+        }
+    }
+
+    /// Pins the last move produced (before an O-word statement at the top level), so that a
+    /// writer resumes verbatim text in the motion mode the source had.
+    fn pin_last_move(&mut self) {
+        if let Some(Block::Move(mv)) = self
+            .tp
+            .blocks
+            .iter_mut()
+            .rev()
+            .find(|b| matches!(b, Block::Move(_)))
+        {
+            mv.pinned = true;
+        }
+    }
+
+    /// Ends the program: nothing after this line is executed.
+    pub(crate) fn end_program(&mut self) {
+        self.ended = true;
+        self.map.end_line = Some(self.pc);
+    }
+
+    /// Appends an event of the current line.
+    pub(crate) fn event(&mut self, kind: EventKind, text: String) {
+        if text.is_empty() {
+            return;
+        }
+        self.line_events = true;
+        self.tp.push_event(Event {
+            line: self.line_no,
+            kind,
+            text,
+        });
+    }
+
+    /// Records a canonical command (conformance runs only).
+    pub(crate) fn canon(&mut self, c: impl FnOnce(&Self) -> Canon) {
+        if self.canon.is_some() {
+            let c = c(self);
+            if let Some(v) = &mut self.canon {
+                v.push(c);
+            }
+        }
+    }
+
+    /// A position value of axis `i` in program units (for parameters and canon).
+    pub(crate) fn prog_units(&self, i: usize, v: f64) -> f64 {
+        if (3..6).contains(&i) {
+            v
+        } else {
+            v / self.scale()
+        }
+    }
+}
+
+impl ParamLookup for Interp<'_> {
+    fn numbered(&self, index: u32) -> Option<f64> {
+        if let Some(v) = modal::system_param(self, index) {
+            return Some(v);
+        }
+        match self.store.get(index) {
+            Some(v) => Some(v),
+            // A known machine reads unset parameters as its parameter file would: 0.
+            None if self.opts.machine.is_some() => Some(0.0),
+            None if index > 5000 => Some(UNKNOWN),
+            None => None,
+        }
+    }
+
+    fn named(&self, name: &[u8]) -> Option<f64> {
+        if name.first() == Some(&b'_') {
+            if let Some(v) = modal::predefined_param(self, name) {
+                return Some(v);
+            }
+        }
+        self.store.get_named(name)
+    }
+}
+
+/// Unused-axis helper: the value of the axes array for the geometry.
+pub(crate) fn axes_vec(p: &[f64; N_AXES]) -> ncsmooth::geom::Vec3 {
+    ncsmooth::geom::Vec3::new(p[0], p[1], p[2])
+}

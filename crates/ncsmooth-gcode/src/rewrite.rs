@@ -1,0 +1,404 @@
+//! The smoothed program written into the program's own text.
+//!
+//! Every physical line of the source is copied verbatim (its comments, M codes, block
+//! delete mark, `%` markers, O-word control flow, canned cycles, offsets, and everything
+//! after `M2`/`M30`), except the lines whose motion the smoothing changed. Those lines
+//! ([`flags::REPLACEABLE`] ones: executed once at the top level, nothing but motion, plane,
+//! distance-mode and feed words) are replaced, run by run, by the smoothed moves that carry
+//! their line numbers ([`Move::line`]), written by the same motion writer as
+//! [`crate::write()`]:
+//!
+//! * in the program's units (inch programs stay inch, with one more decimal than
+//!   [`RewriteOptions::decimals`]), absolute coordinates (a `G90` before the run and a
+//!   `G91` after it when the program was incremental), arc centres in the program's arc
+//!   distance mode, E words in its extruder mode, X as a diameter under G7;
+//! * only the axes whose position is known there: an axis the program never established
+//!   (a 2-D program that never commands Z) is never written, and a smoothed move that would
+//!   change one is an error ([`RewriteError::UnknownAxis`]);
+//! * after the run, the state the next verbatim line expects: distance mode, plane and the
+//!   programmed feed are restored, and the first following line that relies on the modal
+//!   motion code (axis words without G0-G3) gets that code put in front of its words.
+//!
+//! A line whose moves were not changed is copied verbatim even if it could have been
+//! replaced, so `--method none` writes the program unchanged (plus the header lines). A
+//! pinned move ([`Move::pinned`]) that comes back changed is an error
+//! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
+
+use crate::source::{flags, LineInfo, WriteState};
+use crate::writer::{push_fixed, Frame, MotionWriter, MAX_DECIMALS};
+use crate::{Plane, Program};
+use ncsmooth::geom::ParamCurve;
+use ncsmooth::path::{Move, Toolpath, Units};
+
+/// Settings of [`rewrite()`].
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct RewriteOptions {
+    /// Digits after the point for coordinates in millimetre programs (inch programs get
+    /// one more). Default 4.
+    pub decimals: usize,
+    /// Chord tolerance (mm) for flattening curves G-code cannot carry. Default 0.001.
+    pub chord_mm: f64,
+    /// Comment lines written at the top (after an opening `%`), each as a `;` comment so
+    /// that the controller shows nothing. Default none.
+    pub header: Option<String>,
+}
+
+impl Default for RewriteOptions {
+    fn default() -> Self {
+        RewriteOptions {
+            decimals: 4,
+            chord_mm: 0.001,
+            header: None,
+        }
+    }
+}
+
+impl RewriteOptions {
+    /// Options with `decimals` and `chord_mm`.
+    pub fn new(decimals: usize, chord_mm: f64) -> RewriteOptions {
+        RewriteOptions {
+            decimals,
+            chord_mm,
+            header: None,
+        }
+    }
+
+    /// The same options with header lines.
+    pub fn with_header(self, header: impl Into<String>) -> RewriteOptions {
+        RewriteOptions {
+            header: Some(header.into()),
+            ..self
+        }
+    }
+}
+
+/// Decimals written in `units` for `decimals` millimetre decimals.
+pub fn decimals_for(units: Units, decimals: usize) -> usize {
+    match units {
+        Units::Millimetres => decimals,
+        Units::Inches => (decimals + 1).min(MAX_DECIMALS),
+    }
+}
+
+/// Largest distance (mm) a point moves when written with `decimals` in `units`.
+pub fn rounding_mm_for(units: Units, decimals: usize) -> f64 {
+    let d = decimals_for(units, decimals);
+    let unit_mm = match units {
+        Units::Millimetres => 1.0,
+        Units::Inches => 25.4,
+    };
+    crate::writer::rounding_mm(d) * unit_mm
+}
+
+/// Why a rewrite is impossible (a bug in what produced the toolpath, never bad input).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RewriteError {
+    /// A move that must be written as programmed came back changed.
+    #[error("line {line}: a move that must stay as programmed (pinned) was changed")]
+    PinnedChanged {
+        /// 1-based source line.
+        line: u32,
+    },
+    /// A smoothed move would change an axis whose position is unknown there.
+    #[error("line {line}: the smoothed path would move {axis}, whose position is unknown there")]
+    UnknownAxis {
+        /// 1-based source line.
+        line: u32,
+        /// The axis.
+        axis: char,
+    },
+    /// The output's moves do not follow the program's lines.
+    #[error("smoothed move tagged line {line}, which is not in the program")]
+    BadLine {
+        /// The tag.
+        line: u32,
+    },
+}
+
+/// The moves of each line: `(first, end)` index ranges into a move list, per line.
+fn moves_by_line(moves: &[&Move], n_lines: usize) -> Result<Vec<(usize, usize)>, RewriteError> {
+    let mut ranges = vec![(0usize, 0usize); n_lines];
+    let mut last = 0usize;
+    for (k, m) in moves.iter().enumerate() {
+        let l = (m.line as usize).saturating_sub(1);
+        if l >= n_lines {
+            return Err(RewriteError::BadLine { line: m.line });
+        }
+        // Tags may not go backwards within the output: a move belongs to the latest line.
+        let l = l.max(last);
+        last = l;
+        if ranges[l].1 == 0 && ranges[l].0 == 0 {
+            ranges[l] = (k, k + 1);
+        } else {
+            ranges[l].1 = k + 1;
+        }
+    }
+    Ok(ranges)
+}
+
+fn same_moves(a: &[&Move], b: &[&Move]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(x, y)| {
+            x.segment == y.segment
+                && x.kind == y.kind
+                && x.feed_mm_s == y.feed_mm_s
+                && x.extra == y.extra
+        })
+}
+
+fn plane_code(p: Plane) -> u8 {
+    match p {
+        Plane::XY => 17,
+        Plane::XZ => 18,
+        Plane::YZ => 19,
+    }
+}
+
+/// Where `G<n> ` goes in a verbatim line: after leading blanks, a block-delete `/` and an
+/// `N` number.
+fn motion_prefix_at(line: &[u8]) -> usize {
+    let b = line;
+    let mut i = 0;
+    let skip_ws = |i: &mut usize| {
+        while *i < b.len() && (b[*i] == b' ' || b[*i] == b'\t') {
+            *i += 1;
+        }
+    };
+    skip_ws(&mut i);
+    if b.get(i) == Some(&b'/') {
+        i += 1;
+        skip_ws(&mut i);
+    }
+    if matches!(b.get(i), Some(b'N' | b'n')) {
+        let mut j = i + 1;
+        while j < b.len() && (b[j].is_ascii_digit() || b[j] == b'.' || b[j] == b' ') {
+            j += 1;
+        }
+        if j > i + 1 {
+            i = j;
+        }
+    }
+    i
+}
+
+/// The motion code text of `motion10` (`20` -> `G2`).
+fn motion_text(motion10: u16) -> String {
+    let mut s = format!("G{}", motion10 / 10);
+    if motion10 % 10 != 0 {
+        s.push_str(&format!(".{}", motion10 % 10));
+    }
+    s
+}
+
+/// Writes `output` (the smoothed toolpath of `program`) into the text of `src`, the
+/// program's source. See the module doc.
+pub fn rewrite(
+    src: &[u8],
+    program: &Program,
+    output: &Toolpath,
+    opts: &RewriteOptions,
+) -> Result<Vec<u8>, RewriteError> {
+    let lines = &program.source.lines;
+    let orig: Vec<&Move> = program.toolpath.moves().collect();
+    let out: Vec<&Move> = output.moves().collect();
+    let orig_by = moves_by_line(&orig, lines.len())?;
+    let out_by = moves_by_line(&out, lines.len())?;
+    let eol = if src.windows(2).any(|w| w == b"\r\n") {
+        "\r\n"
+    } else {
+        "\n"
+    };
+    let extra_mask = program.toolpath.extra_axes_mask;
+    let mut s: Vec<u8> = Vec::with_capacity(src.len() + src.len() / 4 + 256);
+    let mut header_done = opts.header.is_none();
+    let write_header = |s: &mut Vec<u8>| {
+        if let Some(h) = &opts.header {
+            for l in h.lines() {
+                s.extend_from_slice(b"; ");
+                s.extend_from_slice(l.as_bytes());
+                s.extend_from_slice(eol.as_bytes());
+            }
+        }
+    };
+    let mut changed = vec![false; lines.len()];
+    for (i, info) in lines.iter().enumerate() {
+        let o = &orig[orig_by[i].0..orig_by[i].1];
+        let w = &out[out_by[i].0..out_by[i].1];
+        changed[i] = !same_moves(o, w);
+        if changed[i] && !info.has(flags::REPLACEABLE) {
+            return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
+        }
+    }
+    // The first smoothed move of the run of changed lines starting at `i`.
+    let first_move = |i: usize| {
+        (i..lines.len())
+            .take_while(|&j| changed[j])
+            .find(|&j| out_by[j].1 > out_by[j].0)
+            .map(|j| out[out_by[j].0])
+    };
+    let mut region: Option<Region> = None;
+    // Motion code the next modal-motion line must be given, after a region.
+    let mut pending_motion: Option<u16> = None;
+    for (i, info) in lines.iter().enumerate() {
+        let w = &out[out_by[i].0..out_by[i].1];
+        let text = &src[info.start..info.end];
+        let percent_first = text.iter().find(|c| !c.is_ascii_whitespace()) == Some(&b'%');
+        if !(header_done || i == 0 && percent_first) {
+            write_header(&mut s);
+            header_done = true;
+        }
+        if changed[i] {
+            let r = region.get_or_insert_with(|| {
+                Region::open(&mut s, eol, info, first_move(i), extra_mask, opts)
+            });
+            for m in w {
+                r.w.write_move(m, &mut r.buf)
+                    .map_err(|_| RewriteError::BadLine { line: m.line })?;
+                if let Some((axis, _)) = r.w.violation {
+                    return Err(RewriteError::UnknownAxis { line: m.line, axis });
+                }
+            }
+            s.extend_from_slice(r.buf.replace('\n', eol).as_bytes());
+            r.buf.clear();
+            r.end_state = info.state;
+        } else {
+            if let Some(r) = region.take() {
+                pending_motion = r.close(&mut s, eol);
+            }
+            match pending_motion {
+                Some(code) if info.has(flags::MODAL_MOTION) => {
+                    let at = motion_prefix_at(text);
+                    s.extend_from_slice(&text[..at]);
+                    s.extend_from_slice(motion_text(code).as_bytes());
+                    s.push(b' ');
+                    s.extend_from_slice(&text[at..]);
+                    pending_motion = None;
+                }
+                _ => {
+                    if info.has(flags::EXPLICIT_MOTION) {
+                        pending_motion = None;
+                    }
+                    s.extend_from_slice(text);
+                }
+            }
+            let last_line = i + 1 == lines.len();
+            if !last_line || src.ends_with(b"\n") {
+                s.push(b'\n');
+            }
+            if i == 0 && !header_done {
+                write_header(&mut s);
+                header_done = true;
+            }
+        }
+    }
+    if let Some(r) = region.take() {
+        r.close(&mut s, eol);
+    }
+    if !header_done {
+        write_header(&mut s);
+    }
+    Ok(s)
+}
+
+/// A run of replaced lines being written.
+struct Region {
+    w: MotionWriter,
+    buf: String,
+    /// Source state before the run and after its last line.
+    start_state: WriteState,
+    end_state: WriteState,
+    eol: &'static str,
+}
+
+impl Region {
+    fn open(
+        s: &mut Vec<u8>,
+        eol: &'static str,
+        info: &LineInfo,
+        first: Option<&Move>,
+        extra_mask: u8,
+        opts: &RewriteOptions,
+    ) -> Region {
+        let st = info.before;
+        let scale = match st.units {
+            Units::Millimetres => 1.0,
+            Units::Inches => 25.4,
+        };
+        let frame = Frame {
+            decimals: decimals_for(st.units, opts.decimals),
+            chord_mm: opts.chord_mm,
+            scale,
+            allowed_xyz: (st.known & 0b111) as u8,
+            arc_absolute: st.arc_absolute,
+            e_relative: st.e_relative,
+            diameter: st.diameter,
+            plane: plane_code(st.plane),
+            extra_mask: 0,
+        };
+        let start = first.map(|m| m.segment.start()).unwrap_or_default();
+        let mut w = MotionWriter::new(frame, start);
+        if let Some(m) = first {
+            // Extra axes in use and known (E is always tracked from 0).
+            let known_extra = ((st.known >> 3) & 0x3f) as u8 | 0x40;
+            w.frame.extra_mask = if m.extra.is_some() {
+                extra_mask & known_extra
+            } else {
+                0
+            };
+            w.assume_at(start, m.extra.as_ref());
+        }
+        if !st.absolute {
+            s.extend_from_slice(b"G90");
+            s.extend_from_slice(eol.as_bytes());
+        }
+        Region {
+            w,
+            buf: String::with_capacity(256),
+            start_state: st,
+            end_state: st,
+            eol,
+        }
+    }
+
+    /// Writes what the next verbatim line expects; returns the motion code a following
+    /// modal-motion line must be given, if the last one written differs.
+    fn close(self, s: &mut Vec<u8>, eol: &str) -> Option<u16> {
+        let st = self.end_state;
+        let mut restore = String::new();
+        if !st.absolute {
+            restore.push_str("G91");
+        }
+        if self.w.frame.plane != plane_code(st.plane) {
+            if !restore.is_empty() {
+                restore.push(' ');
+            }
+            restore.push_str(&format!("G{}", plane_code(st.plane)));
+        }
+        if st.feed_word.is_finite() {
+            let written = self.w.last_feed();
+            let mut want = String::new();
+            push_fixed(&mut want, st.feed_word, 10);
+            let same = written.is_some_and(|f| {
+                let mut t = String::new();
+                push_fixed(&mut t, f, 10);
+                t == want
+            });
+            if !same {
+                if !restore.is_empty() {
+                    restore.push(' ');
+                }
+                restore.push('F');
+                restore.push_str(&want);
+            }
+        }
+        if !restore.is_empty() {
+            s.extend_from_slice(restore.as_bytes());
+            s.extend_from_slice(eol.as_bytes());
+        }
+        let _ = (self.start_state, self.eol);
+        let written = self.w.last_motion.map(|c| u16::from(c) * 10);
+        (written != Some(st.motion10)).then_some(st.motion10)
+    }
+}
