@@ -278,6 +278,15 @@ pub(crate) struct MotionWriter {
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
+/// Smallest chord (mm) of an arc of less than half a turn written as G2/G3; shorter arcs
+/// are flattened (into one or a few G1 lines within the chord tolerance: their sagitta is
+/// tiny). A reader that rounds the end points (LinuxCNC's canonical output prints four
+/// decimals, grbl computes in single precision) could otherwise take such an arc for a full
+/// circle.
+pub const MIN_ARC_CHORD_MM: f64 = 0.005;
+/// The same minimum in units of the last written decimal.
+const MIN_ARC_CHORD_UNITS: f64 = 20.0;
+
 /// Smallest arc radius written as G2/G3 (mm): twice LinuxCNC's zero-radius limit
 /// ([`crate::interp::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
 /// arcs are flattened.
@@ -586,6 +595,15 @@ impl MotionWriter {
             return Ok(false);
         }
         let normal_axis = 3 - i0 - i1;
+        let chord = {
+            let (p, q) = (a.eval(0.0), a.eval(1.0));
+            (coord(p, i0) - coord(q, i0)).hypot(coord(p, i1) - coord(q, i1))
+        };
+        if a.sweep < std::f64::consts::PI
+            && chord < (MIN_ARC_CHORD_UNITS * unit).max(MIN_ARC_CHORD_MM)
+        {
+            return Ok(false);
+        }
         // An arc needs both axes of its plane (and the normal one for a helix) writable,
         // and no diameter-mode X.
         let helix = (coord(a.eval(1.0), normal_axis) - coord(a.eval(0.0), normal_axis)).abs() > 0.0;
