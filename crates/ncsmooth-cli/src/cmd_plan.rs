@@ -17,7 +17,7 @@ use ncsmooth::path::{Move, Toolpath};
 use ncsmooth::smooth::{smooth, SmoothOptions, SmoothReport};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Name of the built-in butterfly input.
@@ -184,6 +184,16 @@ fn write_samples(out: &mut OutputFile, tp: &Toolpath, ds: f64) -> Result<()> {
 
 /// Runs `plan`.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
+    let outputs: Vec<(&str, &Path)> = [
+        ("--path-samples", &a.path_samples),
+        ("--setpoints", &a.setpoints),
+        ("--report", &a.report),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+    .collect();
+    let input = (a.file != BUILTIN_BUTTERFLY).then_some(a.file.as_str());
+    io::check_outputs(input, &outputs)?;
     let t0 = Instant::now();
     let (toolpath, name) = if a.file == BUILTIN_BUTTERFLY {
         (builtin_butterfly(), a.file.clone())

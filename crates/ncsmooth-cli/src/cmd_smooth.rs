@@ -331,6 +331,11 @@ pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
 
 /// Runs `smooth`.
 pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
+    let mut outputs = vec![("-o", a.output.as_path())];
+    if let Some(r) = &a.report {
+        outputs.push(("--report", r.as_path()));
+    }
+    io::check_outputs(Some(&a.file), &outputs)?;
     let t0 = Instant::now();
     let program = load(&a.file)?;
     let parse_s = t0.elapsed().as_secs_f64();

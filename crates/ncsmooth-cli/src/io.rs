@@ -135,6 +135,105 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     f.commit()
 }
 
+/// Identity of a file named on the command line, for telling whether two names are the same
+/// file: its device and inode when it exists (Unix), and its canonical path (for a name
+/// that does not exist yet: the canonical directory joined with the file name).
+#[derive(Debug, PartialEq, Eq)]
+struct FileIdentity {
+    /// `(device, inode)` of an existing file on Unix.
+    node: Option<(u64, u64)>,
+    /// Canonical path, when it can be resolved.
+    path: Option<PathBuf>,
+}
+
+impl FileIdentity {
+    /// The identity of `path`, or `None` when it is a character device (`/dev/null`, a
+    /// terminal): writing one twice, or reading and writing it, destroys nothing.
+    fn of(path: &Path) -> Option<FileIdentity> {
+        let meta = std::fs::metadata(path).ok();
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            if meta
+                .as_ref()
+                .is_some_and(|m| m.file_type().is_char_device())
+            {
+                return None;
+            }
+        }
+        #[cfg(unix)]
+        let node = {
+            use std::os::unix::fs::MetadataExt;
+            meta.as_ref().map(|m| (m.dev(), m.ino()))
+        };
+        #[cfg(not(unix))]
+        let node = None;
+        let path = match meta {
+            Some(_) => std::fs::canonicalize(path).ok(),
+            None => {
+                let dir = match path.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d,
+                    _ => Path::new("."),
+                };
+                match (std::fs::canonicalize(dir), path.file_name()) {
+                    (Ok(dir), Some(name)) => Some(dir.join(name)),
+                    _ => None,
+                }
+            }
+        };
+        Some(FileIdentity { node, path })
+    }
+
+    /// True when both name the same file: the same inode, or the same canonical path.
+    fn same_file(&self, other: &FileIdentity) -> bool {
+        (self.node.is_some() && self.node == other.node)
+            || (self.path.is_some() && self.path == other.path)
+    }
+}
+
+/// Refuses (bad input, exit 2) a run whose outputs would destroy its input or each other,
+/// before anything is written: an output that is the input file (the same path, a
+/// symbolic link to it or a hard link of it) or the same file as another output of the
+/// run. `input` is the input path (`None` for a built-in input; `-`, stdin, is skipped);
+/// `outputs` pairs each output path with the option that named it. `-` (stdout) and
+/// character devices such as `/dev/null` are exempt.
+pub fn check_outputs(input: Option<&str>, outputs: &[(&str, &Path)]) -> Result<()> {
+    // A missing input is reported as such when it is read.
+    let input = input
+        .filter(|p| *p != "-" && Path::new(p).exists())
+        .and_then(|p| FileIdentity::of(Path::new(p)).map(|id| (p, id)));
+    let mut seen: Vec<(&str, &Path, FileIdentity)> = Vec::with_capacity(outputs.len());
+    for &(flag, path) in outputs {
+        if path.as_os_str() == "-" {
+            continue;
+        }
+        let Some(id) = FileIdentity::of(path) else {
+            continue;
+        };
+        if let Some((input, input_id)) = &input {
+            if id.same_file(input_id) {
+                return Err(BadInput(format!(
+                    "{flag} {} is the input file {input}: it would be overwritten; \
+                     write to another file",
+                    path.display()
+                ))
+                .into());
+            }
+        }
+        if let Some((other_flag, other, _)) = seen.iter().find(|(_, _, o)| o.same_file(&id)) {
+            return Err(BadInput(format!(
+                "{flag} {} and {other_flag} {} are the same file: one output would \
+                 overwrite the other",
+                path.display(),
+                other.display()
+            ))
+            .into());
+        }
+        seen.push((flag, path, id));
+    }
+    Ok(())
+}
+
 /// Display name of an input path.
 pub fn display_name(path: &str) -> &str {
     if path == "-" {

@@ -462,3 +462,120 @@ fn outputs_are_all_or_nothing() {
     assert_eq!(left, vec![std::ffi::OsString::from("p.ngc")]);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// An output that is the input (the same path, another spelling of it, a symbolic link or a
+/// hard link to it) or the same file as another output is refused with exit 2 before
+/// anything is written: the program stays as it was and no file (not even a temporary one)
+/// appears. `-` and `/dev/null` may be named more than once.
+#[test]
+fn outputs_that_are_the_input_or_each_other_are_refused() {
+    let d = tmpdir("same-file");
+    let src: &[u8] = b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\nM2\n";
+    let x = write(&d, "x.ngc", src);
+    let xs = x.to_str().unwrap();
+    let link = d.join("link.ngc");
+    let hard = d.join("hard.ngc");
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(&x, &link).unwrap();
+    std::fs::hard_link(&x, &hard).unwrap();
+    let other = d.join("sub/../x.ngc");
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let new = d.join("new.json");
+    let new_again = d.join("sub/../new.json");
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["smooth", xs, "--method", "none", "-o", xs],
+        vec![
+            "smooth",
+            xs,
+            "--method",
+            "none",
+            "-o",
+            other.to_str().unwrap(),
+        ],
+        #[cfg(unix)]
+        vec![
+            "smooth",
+            xs,
+            "--method",
+            "none",
+            "-o",
+            link.to_str().unwrap(),
+        ],
+        vec![
+            "smooth",
+            xs,
+            "--method",
+            "none",
+            "-o",
+            hard.to_str().unwrap(),
+        ],
+        vec!["smooth", xs, "-o", new.to_str().unwrap(), "--report", xs],
+        vec![
+            "smooth",
+            xs,
+            "-o",
+            new.to_str().unwrap(),
+            "--report",
+            new_again.to_str().unwrap(),
+        ],
+        vec!["plan", xs, "--setpoints", xs],
+        vec!["plan", xs, "--report", xs],
+        vec!["plan", xs, "--path-samples", hard.to_str().unwrap()],
+        #[cfg(unix)]
+        vec!["plan", xs, "--report", link.to_str().unwrap()],
+        vec![
+            "plan",
+            xs,
+            "--setpoints",
+            new.to_str().unwrap(),
+            "--report",
+            new.to_str().unwrap(),
+        ],
+        vec![
+            "plan",
+            "builtin:butterfly",
+            "--setpoints",
+            new.to_str().unwrap(),
+            "--report",
+            new_again.to_str().unwrap(),
+        ],
+    ];
+    let listing = || {
+        let mut v: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing();
+    for args in &cases {
+        let o = run(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("same file") || err.contains("is the input"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(
+            std::fs::read(&x).unwrap(),
+            src,
+            "{args:?} changed the program"
+        );
+        assert_eq!(listing(), before, "{args:?} left a file behind");
+    }
+    // Standard output and /dev/null are not files to protect.
+    let o = run(&[
+        "plan",
+        xs,
+        "--quiet",
+        "--setpoints",
+        "/dev/null",
+        "--report",
+        "/dev/null",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["plan", xs, "--quiet", "--setpoints", "-", "--report", "-"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&d);
+}
