@@ -579,3 +579,125 @@ fn outputs_that_are_the_input_or_each_other_are_refused() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The interpolation period is in seconds within 1e-5 ..= 0.1: outside it (milliseconds
+/// typed as seconds, a period that would make the output unbounded) is bad input.
+#[test]
+fn plan_period_outside_its_range_is_refused() {
+    for period in ["10", "0.5", "1e-9", "0", "-0.001", "NaN"] {
+        let arg = format!("--period={period}");
+        let o = run(&["plan", "builtin:butterfly", "--quiet", &arg]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "--period {period}: {err}");
+        assert!(err.contains("--period"), "--period {period}: {err}");
+    }
+    let o = run(&["plan", "builtin:butterfly", "--quiet", "--period", "0.1"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let help = String::from_utf8_lossy(&run(&["plan", "--help"]).stdout).into_owned();
+    assert!(
+        help.contains("--max-rows") && help.contains("1e-5"),
+        "{help}"
+    );
+}
+
+/// `--max-rows N` bounds the setpoints: a plan whose lower bound on the cycle time already
+/// needs more rows is refused before planning, one that turns out longer is stopped when it
+/// passes N; both exit 2 and leave no file. A plan of exactly N rows is written.
+#[test]
+fn plan_max_rows_refuses_or_stops_and_writes_nothing() {
+    let d = tmpdir("max-rows");
+    // Four 10 mm sides at 10 mm/s with an exact stop at each corner: at least 4 s.
+    let f = write(
+        &d,
+        "sq.ngc",
+        b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\nG1 X0 Y10\nG1 X0 Y0\nM2\n",
+    );
+    let sp = d.join("sp.csv");
+    let rep = d.join("r.json");
+    let plan = |max: &str| {
+        run(&[
+            "plan",
+            f.to_str().unwrap(),
+            "--quiet",
+            "--setpoints",
+            sp.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+            "--max-rows",
+            max,
+        ])
+    };
+    let only_input = || {
+        let left: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, vec![std::ffi::OsString::from("sq.ngc")]);
+    };
+    // Refused up front: 4 s at 1 ms is at least 4000 rows.
+    let o = plan("3000");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("at least") && err.contains("--max-rows 3000"),
+        "{err}"
+    );
+    only_input();
+    // The real count, then one row less (stopped while writing) and exactly as many.
+    let o = plan("100000000");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    let rows = r["plan"]["setpoints"].as_u64().unwrap();
+    assert!(rows > 4000, "{rows}");
+    std::fs::remove_file(&sp).unwrap();
+    std::fs::remove_file(&rep).unwrap();
+    let o = plan(&(rows - 1).to_string());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("stopped"), "{err}");
+    only_input();
+    let o = plan(&rows.to_string());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(&sp).unwrap();
+    assert_eq!(csv.lines().count() as u64, rows + 1);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A plan whose setpoints would take more than 1 GB says so on stderr before it starts.
+#[test]
+fn plan_announces_a_huge_output() {
+    let d = tmpdir("huge");
+    let f = write(&d, "p.ngc", b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nM2\n");
+    // 10 mm at 1e-3 mm/s every 1e-5 s: at least 1e9 rows, some 63 GB.
+    let mut child = bin()
+        .args([
+            "plan",
+            f.to_str().unwrap(),
+            "--feed",
+            "0.001",
+            "--period",
+            "1e-5",
+        ])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Read on a thread: a binary that starts without a word must not hang the test.
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::BufRead::read_line(&mut std::io::BufReader::new(stderr), &mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx
+        .recv_timeout(std::time::Duration::from_secs(30))
+        .unwrap_or_default();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        line.contains("setpoint rows") && line.contains("63.0 GB"),
+        "{line}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
