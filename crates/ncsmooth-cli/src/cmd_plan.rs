@@ -448,12 +448,11 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => io::print_stdout(&json)?,
         (None, None) => {}
     }
-    for out in [samples_out, setpoints_out, report_out]
-        .into_iter()
-        .flatten()
-    {
-        out.commit()?;
-    }
+    io::commit_all(
+        [samples_out, setpoints_out, report_out]
+            .into_iter()
+            .flatten(),
+    )?;
     let r = &run.plan;
     let worst = r.axes.iter().map(|x| x.a_ratio).fold(0.0f64, f64::max);
     let jerk = r

@@ -318,9 +318,7 @@ pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
         files.push(f);
     }
-    for f in files {
-        f.commit()?;
-    }
+    io::commit_all(files)?;
     for (path, bytes) in outputs {
         if path.is_some_and(|p| p.as_os_str() == "-") {
             io::print_stdout(&String::from_utf8_lossy(bytes))?;

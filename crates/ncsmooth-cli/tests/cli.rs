@@ -701,3 +701,140 @@ fn plan_announces_a_huge_output() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// True when the test process ignores signal `signo` (read from Linux's /proc): the child
+/// inherits that and rightly keeps ignoring it, so such a case cannot be tested here.
+#[cfg(unix)]
+fn ignored_here(signo: i32) -> bool {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigIgn:"))
+                .and_then(|m| u64::from_str_radix(m.trim(), 16).ok())
+        })
+        .is_some_and(|mask| (mask >> (signo - 1)) & 1 == 1)
+}
+
+/// Starts a plan that runs for minutes, writing `sp.csv` and `r.json` into `dir`: the
+/// stellabee1 program from ../shared (as in issue 15) when it is there, else a generated
+/// program of 200 000 short lines at 6 mm/min (some 4 hours of cycle).
+#[cfg(unix)]
+fn start_long_plan(dir: &Path) -> std::process::Child {
+    let stellabee = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/gcode/linuxcnc_stellabee1.ngc"
+    ));
+    let input = if stellabee.exists() {
+        stellabee
+    } else {
+        eprintln!("../shared absent: a generated program stands in for stellabee1");
+        let mut src = String::from("G21 G90\nG0 X0 Y0\nG1 F6\n");
+        for i in 1..=200_000 {
+            src.push_str(&format!("G1 X{} Y{}\n", i % 2, i as f64 * 1e-3));
+        }
+        write(dir, "long.ngc", src.as_bytes())
+    };
+    bin()
+        .arg("plan")
+        .arg(&input)
+        .args([
+            "--quiet", "--method", "none", "--feed", "50", "--acc", "500",
+        ])
+        .arg("--setpoints")
+        .arg(dir.join("sp.csv"))
+        .arg("--report")
+        .arg(dir.join("r.json"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// SIGINT, SIGTERM and SIGHUP during a long plan remove its temporary files (hundreds of
+/// MB of setpoints, the report's) and exit with 128 + the signal number; no output appears.
+#[cfg(unix)]
+#[test]
+fn interrupted_plan_removes_its_temporary_files() {
+    for (name, signo) in [("INT", 2), ("TERM", 15), ("HUP", 1)] {
+        if ignored_here(signo) {
+            eprintln!("SIG{name} is ignored by the test process (inherited): case skipped");
+            continue;
+        }
+        let d = tmpdir(&format!("signal-{name}"));
+        let mut child = start_long_plan(&d);
+        // Signalled once the setpoints are being written, so that there is something to
+        // remove.
+        let tmp = d.join(format!(".sp.csv.ncsmooth-tmp-{}", child.id()));
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+        while !std::fs::metadata(&tmp).is_ok_and(|m| m.len() > 0) {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "SIG{name}: the plan ended before writing"
+            );
+            assert!(
+                std::time::Instant::now() < deadline,
+                "SIG{name}: no setpoints"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        let killed = Command::new("kill")
+            .arg(format!("-{name}"))
+            .arg(child.id().to_string())
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(128 + signo),
+            "SIG{name}: {:?} {}",
+            o.status,
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let left: Vec<String> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n != "long.ngc")
+            .collect();
+        assert!(left.is_empty(), "SIG{name} left {left:?}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}
+
+/// A run removes the temporary files that dead processes (a run killed by SIGKILL) left for
+/// its outputs, and keeps those of live processes and of other outputs.
+#[cfg(target_os = "linux")]
+#[test]
+fn stale_temporary_files_of_dead_processes_are_removed() {
+    let d = tmpdir("stale");
+    let dead = (900_000..=999_999u32)
+        .rev()
+        .find(|p| !Path::new(&format!("/proc/{p}")).exists())
+        .unwrap();
+    let live = std::process::id();
+    let stale = write(&d, &format!(".out.csv.ncsmooth-tmp-{dead}"), b"t,x");
+    let stale_report = write(&d, &format!(".r.json.ncsmooth-tmp-{dead}"), b"");
+    let of_live = write(&d, &format!(".out.csv.ncsmooth-tmp-{live}"), b"t,x");
+    let of_other = write(&d, &format!(".other.csv.ncsmooth-tmp-{dead}"), b"t,x");
+    let out = d.join("out.csv");
+    let o = run(&[
+        "plan",
+        "builtin:butterfly",
+        "--quiet",
+        "--setpoints",
+        out.to_str().unwrap(),
+        "--report",
+        d.join("r.json").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        !stale.exists() && !stale_report.exists(),
+        "stale files kept"
+    );
+    assert!(of_live.exists(), "a live process's file was removed");
+    assert!(of_other.exists(), "another output's file was removed");
+    assert!(out.exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
