@@ -235,6 +235,18 @@ fn lines_allowed(max_rows: u64) -> u64 {
     max_rows.saturating_add(1)
 }
 
+/// Bytes counted per step of [`newlines`]: the most a `u8` counter can hold.
+const NEWLINE_COUNT_CHUNK: usize = u8::MAX as usize;
+
+/// Number of `\n` in `bytes`, counted in byte-wide lanes (the per-row count must not
+/// slow the writing thread, the bottleneck of a large plan).
+fn newlines(bytes: &[u8]) -> u64 {
+    bytes
+        .chunks(NEWLINE_COUNT_CHUNK)
+        .map(|c| u64::from(c.iter().fold(0u8, |n, &b| n + u8::from(b == b'\n'))))
+        .sum()
+}
+
 /// Marks the write error of [`RowLimit`].
 #[derive(Debug)]
 struct RowLimitExceeded;
@@ -260,12 +272,18 @@ impl<W: Write> Write for RowLimit<W> {
         let Some(left) = self.lines_left else {
             return self.inner.write(buf);
         };
-        let count = |b: &[u8]| b.iter().filter(|&&c| c == b'\n').count() as u64;
-        if count(buf) > left {
+        let lines = newlines(buf);
+        if lines > left {
             return Err(std::io::Error::other(RowLimitExceeded));
         }
         let n = self.inner.write(buf)?;
-        self.lines_left = Some(left - count(&buf[..n]));
+        // A short write passes on only part of the lines (rare: the rest comes again).
+        let passed = if n == buf.len() {
+            lines
+        } else {
+            newlines(&buf[..n])
+        };
+        self.lines_left = Some(left - passed);
         Ok(n)
     }
     fn flush(&mut self) -> std::io::Result<()> {
@@ -476,4 +494,30 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         run.end_to_end_real_time_factor
     ));
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn newlines_are_counted_across_chunks() {
+        let text = "a\n\n".repeat(1000);
+        assert_eq!(newlines(text.as_bytes()), 2000);
+        assert_eq!(newlines(&[b'\n'; 256]), 256);
+        assert_eq!(newlines(b""), 0);
+    }
+
+    #[test]
+    fn row_limit_fails_the_write_that_would_pass_it() {
+        let mut w = RowLimit {
+            inner: Vec::new(),
+            lines_left: Some(lines_allowed(2)),
+        };
+        w.write_all(b"t,x\n0,1\n").unwrap();
+        w.write_all(b"1,2\n").unwrap();
+        let e = w.write_all(b"2,3\n").unwrap_err();
+        assert!(e.get_ref().unwrap().is::<RowLimitExceeded>());
+        assert_eq!(w.inner, b"t,x\n0,1\n1,2\n");
+    }
 }
