@@ -12,12 +12,12 @@ use anyhow::Result;
 use clap::{Args, ValueEnum};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
-use ncsmooth::interp::{execute, InterpMethod, InterpOptions, PlanReport};
-use ncsmooth::path::{Move, Toolpath};
+use ncsmooth::interp::{execute, InterpMethod, InterpOptions, PlanError, PlanReport};
+use ncsmooth::path::{Move, MoveKind, Toolpath};
 use ncsmooth::smooth::{smooth, SmoothOptions, SmoothReport};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Name of the built-in butterfly input.
@@ -28,6 +28,25 @@ const BUILTIN_FEED_MM_S: f64 = 50.0;
 const SAMPLE_ACCURACY_MM: f64 = 1e-9;
 /// Write buffer of the setpoint stream (bytes).
 const SETPOINT_BUFFER_BYTES: usize = 1 << 20;
+/// Shortest `--period` accepted (s): 10 us, a 100 kHz setpoint rate. CNC controllers take
+/// position setpoints every 0.125 to 4 ms (LinuxCNC's servo thread runs at 1 ms); a shorter
+/// period describes no machine, and the work and output grow as 1/period without bound
+/// (stellabee1's 1.9 h cycle at 1e-9 s would be 7e12 rows of CSV).
+pub const MIN_PERIOD_S: f64 = 1e-5;
+/// Longest `--period` accepted (s): 100 ms, a 10 Hz setpoint rate, coarser than any
+/// position loop. Longer steps no longer describe the motion (the rows' finite-difference
+/// accelerations and the chord error the report measures lose their meaning), and such a
+/// value is most likely milliseconds typed as seconds (`--period 10` for 10 ms stretched a
+/// 9.9 s cycle to 920 s).
+pub const MAX_PERIOD_S: f64 = 0.1;
+/// Typical bytes of one setpoint row (`t,x,y,z,feed` at 9 decimals, no extra axis): the
+/// 6 927 405 rows of stellabee1 take 436 MB, 63 bytes each.
+const TYPICAL_ROW_BYTES: u64 = 63;
+/// Setpoint output (bytes, estimated from the lower bound on the rows) above which `plan`
+/// says on stderr, before writing, how much it is about to write.
+pub const LARGE_OUTPUT_BYTES: u64 = 1_000_000_000;
+/// Accuracy (mm) of the move lengths in the lower bound on the cycle time.
+const ESTIMATE_ACCURACY_MM: f64 = 1e-6;
 
 /// Interpolation method names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -77,9 +96,17 @@ pub struct PlanArgs {
     /// Rapid (G0) speed (mm/s) [default: --feed].
     #[arg(long)]
     pub rapid: Option<f64>,
-    /// Interpolation period T (s).
+    // The range is MIN_PERIOD_S ..= MAX_PERIOD_S.
+    /// Interpolation period T (s), from 1e-5 to 0.1.
     #[arg(long, default_value_t = 0.001)]
     pub period: f64,
+    /// Largest number of setpoint rows the plan may produce (written, printed or only
+    /// measured). A plan whose cycle time at the speed caps already needs more is refused
+    /// before planning; one that turns out longer stops when it passes N. Either way the
+    /// run exits 2 and writes no file (setpoints already sent to stdout stay sent).
+    /// [default: no limit; an estimate above 1 GB of CSV is printed to stderr first]
+    #[arg(long, value_name = "N")]
+    pub max_rows: Option<u64>,
     /// Chord error delta (mm) of Wu eq. 21: v <= (2/T) sqrt(delta (2R - delta)).
     #[arg(long, default_value_t = 0.001)]
     pub chord_error: f64,
@@ -182,8 +209,138 @@ fn write_samples(out: &mut OutputFile, tp: &Toolpath, ds: f64) -> Result<()> {
     Ok(())
 }
 
+/// A lower bound on the cycle time (s) of `tp` under `popts`: every move run at its speed
+/// cap throughout, as the planner caps it (rapids at the rapid speed, feed moves at the
+/// lower of their programmed F and `--feed`). Acceleration, stops, dwells and the other
+/// limits only add time.
+fn min_cycle_time_s(tp: &Toolpath, popts: &PlanOptions) -> f64 {
+    let rapid = tp.length(MoveKind::Rapid, ESTIMATE_ACCURACY_MM) / popts.rapid();
+    let feed: f64 = tp
+        .moves()
+        .filter(|m| m.kind == MoveKind::Feed)
+        .map(|m| {
+            let cap = m
+                .feed_mm_s
+                .filter(|f| *f > 0.0 && f.is_finite())
+                .map_or(popts.feed_mm_s, |f| f.min(popts.feed_mm_s));
+            m.segment.arclen(ESTIMATE_ACCURACY_MM) / cap
+        })
+        .sum();
+    rapid + feed
+}
+
+/// Number of rows the writer lets through before [`RowLimit`] refuses a write: the row
+/// limit plus the CSV header.
+fn lines_allowed(max_rows: u64) -> u64 {
+    max_rows.saturating_add(1)
+}
+
+/// Bytes counted per step of [`newlines`]: the most a `u8` counter can hold.
+const NEWLINE_COUNT_CHUNK: usize = u8::MAX as usize;
+
+/// Number of `\n` in `bytes`, counted in byte-wide lanes (the per-row count must not
+/// slow the writing thread, the bottleneck of a large plan).
+fn newlines(bytes: &[u8]) -> u64 {
+    bytes
+        .chunks(NEWLINE_COUNT_CHUNK)
+        .map(|c| u64::from(c.iter().fold(0u8, |n, &b| n + u8::from(b == b'\n'))))
+        .sum()
+}
+
+/// Marks the write error of [`RowLimit`].
+#[derive(Debug)]
+struct RowLimitExceeded;
+
+impl std::fmt::Display for RowLimitExceeded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("row limit exceeded")
+    }
+}
+impl std::error::Error for RowLimitExceeded {}
+
+/// The setpoint stream under `--max-rows`: counts the lines written and fails the write
+/// that would pass the limit (before any of it reaches the output), which stops the
+/// interpolation. Without a limit it only passes the bytes on.
+struct RowLimit<W> {
+    inner: W,
+    /// Lines still allowed; `None` without a limit.
+    lines_left: Option<u64>,
+}
+
+impl<W: Write> Write for RowLimit<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let Some(left) = self.lines_left else {
+            return self.inner.write(buf);
+        };
+        let lines = newlines(buf);
+        if lines > left {
+            return Err(std::io::Error::other(RowLimitExceeded));
+        }
+        let n = self.inner.write(buf)?;
+        // A short write passes on only part of the lines (rare: the rest comes again).
+        let passed = if n == buf.len() {
+            lines
+        } else {
+            newlines(&buf[..n])
+        };
+        self.lines_left = Some(left - passed);
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Plans and interpolates into `out` under the row limit; passing the limit is bad input.
+fn execute_limited<W: Write + Send>(
+    tp: &Toolpath,
+    popts: &PlanOptions,
+    iopts: &InterpOptions,
+    out: W,
+    max_rows: Option<u64>,
+) -> Result<(PlanReport, W)> {
+    let out = RowLimit {
+        inner: out,
+        lines_left: max_rows.map(lines_allowed),
+    };
+    match execute(tp, popts, iopts, out) {
+        Ok((report, w)) => Ok((report, w.inner)),
+        Err(PlanError::Io(e))
+            if e.get_ref()
+                .is_some_and(|e| e.downcast_ref::<RowLimitExceeded>().is_some()) =>
+        {
+            Err(io::BadInput(format!(
+                "the plan needs more than --max-rows {} setpoint rows (at --period {:?} s); \
+                 stopped, nothing written",
+                max_rows.unwrap_or_default(),
+                popts.period_s
+            ))
+            .into())
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
 /// Runs `plan`.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
+    let outputs: Vec<(&str, &Path)> = [
+        ("--path-samples", &a.path_samples),
+        ("--setpoints", &a.setpoints),
+        ("--report", &a.report),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+    .collect();
+    let input = (a.file != BUILTIN_BUTTERFLY).then_some(a.file.as_str());
+    io::check_outputs(input, &outputs)?;
+    if !(MIN_PERIOD_S..=MAX_PERIOD_S).contains(&a.period) {
+        return Err(io::BadInput(format!(
+            "--period {:?} s is outside {MIN_PERIOD_S:?} ..= {MAX_PERIOD_S:?} s (the \
+             interpolation period is in seconds: 1 ms is 0.001)",
+            a.period
+        ))
+        .into());
+    }
     let t0 = Instant::now();
     let (toolpath, name) = if a.file == BUILTIN_BUTTERFLY {
         (builtin_butterfly(), a.file.clone())
@@ -247,19 +404,49 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         }
         write_samples(out, &smoothed.toolpath, a.sample_ds)?;
     }
+    // Every row is a period of the cycle, which cannot be shorter than the path at its
+    // speed caps: refuse or announce a huge output before producing any of it.
+    let min_cycle_s = min_cycle_time_s(&smoothed.toolpath, &popts);
+    // Truncated (not the row at t = 0 added): a margin of one row for rounding.
+    let min_rows = (min_cycle_s / popts.period_s) as u64;
+    if let Some(max) = a.max_rows.filter(|&max| min_rows > max) {
+        return Err(io::BadInput(format!(
+            "the cycle takes at least {min_cycle_s:.3} s (the path at its speed caps), so at \
+             least {min_rows} setpoint rows at --period {:?} s, more than --max-rows {max}; \
+             nothing written",
+            a.period
+        ))
+        .into());
+    }
+    let min_bytes = min_rows.saturating_mul(TYPICAL_ROW_BYTES);
+    if min_bytes > LARGE_OUTPUT_BYTES {
+        let fate = if a.setpoints.is_some() {
+            "of setpoint CSV to write"
+        } else {
+            "of setpoints to compute (not written)"
+        };
+        ui.status(format!(
+            "note: the cycle takes at least {min_cycle_s:.3} s: at least {min_rows} setpoint \
+             rows at --period {:?} s, about {:.1} GB {fate} (--max-rows bounds it)",
+            a.period,
+            min_bytes as f64 / 1e9
+        ));
+    }
+    let tp = &smoothed.toolpath;
+    let max = a.max_rows;
     let (report, setpoints_out) = match (setpoints_out, &a.setpoints) {
         (Some(f), _) => {
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, f);
-            let (rep, w) = execute(&smoothed.toolpath, &popts, &iopts, w)?;
+            let (rep, w) = execute_limited(tp, &popts, &iopts, w, max)?;
             (rep, Some(w.into_inner().map_err(|e| e.into_error())?))
         }
         (None, Some(_)) => {
             // Unlocked: the setpoints are written from the planner's second thread.
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, std::io::stdout());
-            (execute(&smoothed.toolpath, &popts, &iopts, w)?.0, None)
+            (execute_limited(tp, &popts, &iopts, w, max)?.0, None)
         }
         (None, None) => (
-            execute(&smoothed.toolpath, &popts, &iopts, std::io::sink())?.0,
+            execute_limited(tp, &popts, &iopts, std::io::sink(), max)?.0,
             None,
         ),
     };
@@ -279,12 +466,11 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => io::print_stdout(json.as_bytes())?,
         (None, None) => {}
     }
-    for out in [samples_out, setpoints_out, report_out]
-        .into_iter()
-        .flatten()
-    {
-        out.commit()?;
-    }
+    io::commit_all(
+        [samples_out, setpoints_out, report_out]
+            .into_iter()
+            .flatten(),
+    )?;
     let r = &run.plan;
     let worst = r.axes.iter().map(|x| x.a_ratio).fold(0.0f64, f64::max);
     let jerk = r
@@ -308,4 +494,30 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         run.end_to_end_real_time_factor
     ));
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn newlines_are_counted_across_chunks() {
+        let text = "a\n\n".repeat(1000);
+        assert_eq!(newlines(text.as_bytes()), 2000);
+        assert_eq!(newlines(&[b'\n'; 256]), 256);
+        assert_eq!(newlines(b""), 0);
+    }
+
+    #[test]
+    fn row_limit_fails_the_write_that_would_pass_it() {
+        let mut w = RowLimit {
+            inner: Vec::new(),
+            lines_left: Some(lines_allowed(2)),
+        };
+        w.write_all(b"t,x\n0,1\n").unwrap();
+        w.write_all(b"1,2\n").unwrap();
+        let e = w.write_all(b"2,3\n").unwrap_err();
+        assert!(e.get_ref().unwrap().is::<RowLimitExceeded>());
+        assert_eq!(w.inner, b"t,x\n0,1\n1,2\n");
+    }
 }

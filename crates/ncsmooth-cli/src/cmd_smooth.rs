@@ -328,9 +328,7 @@ pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
         files.push(f);
     }
-    for f in files {
-        f.commit()?;
-    }
+    io::commit_all(files)?;
     for (path, bytes) in outputs {
         if path.is_some_and(|p| p.as_os_str() == "-") {
             io::print_stdout(bytes)?;
@@ -341,6 +339,11 @@ pub fn write_outputs(outputs: &[(Option<&PathBuf>, &[u8])]) -> Result<()> {
 
 /// Runs `smooth`.
 pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
+    let mut outputs = vec![("-o", a.output.as_path())];
+    if let Some(r) = &a.report {
+        outputs.push(("--report", r.as_path()));
+    }
+    io::check_outputs(Some(&a.file), &outputs)?;
     let t0 = Instant::now();
     let loaded = load(&a.file)?;
     let program = &loaded.program;

@@ -2,8 +2,9 @@
 //!
 //! Every subcommand takes an input file or `-` for stdin, writes its outputs atomically,
 //! and exits with 0 on success, 2 on bad input (a parse error is printed as a rustc-style
-//! snippet naming file, line and column) and 1 on an internal error. Lengths are in mm,
-//! speeds in mm/s, accelerations in mm/s^2, jerks in mm/s^3, times in s.
+//! snippet naming file, line and column) and 1 on an internal error; SIGINT, SIGTERM or
+//! SIGHUP remove the temporary files and exit with 128 plus the signal number. Lengths are
+//! in mm, speeds in mm/s, accelerations in mm/s^2, jerks in mm/s^3, times in s.
 #![forbid(unsafe_code)]
 
 mod cmd_inspect;
@@ -73,6 +74,11 @@ fn run(cli: Cli) -> Result<()> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = io::remove_temp_files_on_signals() {
+        // The run can go on; an interruption may then leave a temporary file, which the
+        // next run beside the same output removes.
+        eprintln!("warning: {e:#}");
+    }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
