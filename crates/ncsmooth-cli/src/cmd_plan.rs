@@ -493,6 +493,14 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         r.real_time_factor,
         run.end_to_end_real_time_factor
     ));
+    if !r.jumps.is_empty() {
+        let total: f64 = r.jumps.iter().map(|j| j.distance_mm).sum();
+        ui.status(format!(
+            "note: {} jump(s) in the setpoints ({total:.3} mm in all, first at t = {:.3} s): the controller runs motion ncsmooth cannot place there (G28/G30, G53, a move from an unknown position); its time is not in the cycle time (see `jumps` in the report)",
+            r.jumps.len(),
+            r.jumps[0].t_s
+        ));
+    }
     Ok(())
 }
 

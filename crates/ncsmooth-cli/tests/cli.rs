@@ -861,3 +861,95 @@ fn stale_temporary_files_of_dead_processes_are_removed() {
     assert!(out.exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A G28 return in the middle of a program goes to a position ncsmooth cannot know: the
+/// plan stops, the setpoints jump to the next known position, the report lists the jump,
+/// and the limits are measured within the sections (issue 15, item 7: the return used to
+/// vanish from the setpoints silently).
+#[test]
+fn plan_reports_the_jump_of_an_untracked_return() {
+    let d = tmpdir("g28jump");
+    let f = write(
+        &d,
+        "p.ngc",
+        b"G21 G90 G0 X0 Y0 Z5\nG1 X10 F600\nG28\nG0 X20 Y5 Z5\nG1 X30 F600\nM2\n",
+    );
+    let rep = d.join("r.json");
+    let o = run(&[
+        "plan",
+        f.to_str().unwrap(),
+        "--method",
+        "none",
+        "--feed",
+        "10",
+        "--acc",
+        "100",
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("1 jump"));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    let jumps = r["plan"]["jumps"].as_array().unwrap();
+    assert_eq!(jumps.len(), 1);
+    assert_eq!(jumps[0]["from"].as_array().unwrap()[0].as_f64(), Some(10.0));
+    assert!((jumps[0]["distance_mm"].as_f64().unwrap() - 125f64.sqrt()).abs() < 1e-3);
+    assert_eq!(r["plan"]["limits_held"].as_bool(), Some(true));
+}
+
+/// Nothing invented (issue 14): an axis the program never commands is never written, and
+/// after a G53 move the axis it moved is not written as a work coordinate.
+#[test]
+fn smooth_never_writes_an_unknown_axis() {
+    let d = tmpdir("unknownaxis");
+    let f = write(
+        &d,
+        "noz.ngc",
+        b"G0 X10 Y10\nG1 X20 F600\nG1 Y20\nG1 X30\nM2\n",
+    );
+    let out = d.join("out.ngc");
+    for method in ["none", "bspline", "arc", "nurbs", "trig"] {
+        let o = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            method,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            o.status.success(),
+            "{method}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(!text.contains('Z'), "{method} wrote Z:\n{text}");
+        assert!(text.contains("G0 X10 Y10\n"), "{method}:\n{text}");
+    }
+    // G53 Z then a move in the work frame: Z is not written until the program commands it.
+    let f = write(
+        &d,
+        "g53.ngc",
+        b"G21 G90 G0 X0 Y0 Z5\nG1 X10 F600\nG1 Y10\nG0 G53 Z-10.0\nG0 X0 Y0\nG1 X10 F600\nG1 Y10\nG1 X20\nG1 Z-1\nG1 X30 Y20\nG1 Y30\nM2\n",
+    );
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        "bspline",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let after_g53: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.contains("G53"))
+        .skip(1)
+        .take_while(|l| !l.contains("Z-1"))
+        .collect();
+    assert!(
+        after_g53.iter().all(|l| !l.contains('Z')),
+        "Z written after G53:\n{text}"
+    );
+}

@@ -585,3 +585,33 @@ fn non_utf8_bytes_in_comments_are_harmless() {
     assert_eq!(e.kind, ParseErrorKind::InvalidUtf8);
     assert_eq!((e.line, e.column, e.byte_range), (2, 7, 10..11));
 }
+
+/// LinuxCNC's radius rule for centre-format arcs (its interpreter tests'
+/// `README.arc-radius-tolerance`): refused when |r1 - r2| > 100 t_abs, or when
+/// |r1 - r2| > t_abs and the relative error exceeds 0.1 %, with t_abs = 2 x 0.01 mm x
+/// sqrt(2) in mm programs and 2 x 0.001 in x sqrt(2) in inch programs. (The interpreter
+/// used to refuse anything above max(0.005 mm, 0.1 %).)
+#[test]
+fn arc_radius_rule_is_linuxcncs() {
+    let arc = |units: &str, r: f64, dr: f64| {
+        // Start at (r, 0), centre at the origin, end at (0, r + dr): radii r and r + dr.
+        let src = format!("{units} G0 X{r} Y0 F100\nG3 X0 Y{} I-{r} J0", r + dr);
+        parse_str(&src, "t.ngc", &known())
+    };
+    // 0.01 mm on a 10 mm arc: within t_abs = 0.0283 mm.
+    assert!(arc("G21", 10.0, 0.01).is_ok());
+    assert!(arc("G21", 10.0, 0.028).is_ok());
+    // 0.03 mm on 10 mm: above t_abs and 0.3 %.
+    let e = arc("G21", 10.0, 0.03).unwrap_err();
+    assert!(
+        matches!(e.kind, ParseErrorKind::ArcRadiusMismatch { .. }),
+        "{e}"
+    );
+    // 0.5 mm on 1000 mm: above t_abs but only 0.05 %, and below 100 t_abs.
+    assert!(arc("G21", 1000.0, 0.5).is_ok());
+    // 3 mm on 5000 mm: 0.06 % but above 100 t_abs = 2.83 mm.
+    assert!(arc("G21", 5000.0, 3.0).is_err());
+    // Inch: t_abs = 0.00283 in.
+    assert!(arc("G20", 1.0, 0.0028).is_ok());
+    assert!(arc("G20", 1.0, 0.0029).is_err());
+}

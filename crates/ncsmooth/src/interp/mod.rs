@@ -326,6 +326,9 @@ pub struct Interpolator<'p, 'a> {
     /// Point and derivatives at the current place, when the last step computed them
     /// ([`StepCurve::DERS_ARE_CHEAP`]): `(move, parameter, ders)`.
     here: Option<(usize, f64, [Vec3; 3])>,
+    /// The last advance crossed into a move that does not start where the previous one
+    /// ended (motion ncsmooth cannot place came between).
+    jumped: bool,
     /// Statistics so far.
     pub stats: InterpStats,
 }
@@ -346,8 +349,14 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             p,
             prepared: None,
             here: None,
+            jumped: false,
             stats: InterpStats::default(),
         }
+    }
+
+    /// Whether the position jumped since the last call (and forgets it).
+    pub fn take_jump(&mut self) -> bool {
+        std::mem::take(&mut self.jumped)
     }
 
     /// Extra-axis values at the current place.
@@ -377,7 +386,11 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                     self.cur += 1;
                     self.u = 0.0;
                     self.s = moves[self.cur].s0;
-                    self.p = moves[self.cur].segment.start();
+                    let next = moves[self.cur].segment.start();
+                    if next.dist(m.segment.end()) > crate::verify::GAP_TOL_MM {
+                        self.jumped = true;
+                    }
+                    self.p = next;
                     continue;
                 }
                 self.u = 1.0;

@@ -249,6 +249,11 @@ pub struct PlanReport {
     pub fd_jerk_noise_mm_s3: f64,
     /// Every axis within its velocity and acceleration limits (and jerk, when limited).
     pub limits_held: bool,
+    /// Jumps between setpoint rows: the machine stopped, the controller ran motion that
+    /// ncsmooth cannot place (a G28/G30 return, a G53 move, a move from a position the
+    /// program had not established), and the plan resumes at the next known position.
+    /// Finite differences are measured within the sections between them.
+    pub jumps: Vec<super::setpoints::Jump>,
     /// Exact stops by reason (and corners blended by the junction-deviation rule).
     pub exact_stops: StopCounts,
     /// Planner statistics.
@@ -380,6 +385,7 @@ impl<'i, 'p, 'a> Emitter<'i, 'p, 'a> {
                 p,
                 feed,
                 extra,
+                jump: self.interp.take_jump(),
             });
         }
         self.batch.clear();
@@ -478,6 +484,7 @@ pub fn execute<W: Write + Send>(
     let rows = writer.rows;
     let last = writer.last;
     let first = writer.first;
+    let jumps = std::mem::take(&mut writer.jumps);
     let out = writer.finish().map_err(PlanError::Io)?;
     let total_s = clock.elapsed().as_secs_f64();
     let acc_noise = 2e-9 / (period * period);
@@ -526,6 +533,7 @@ pub fn execute<W: Write + Send>(
         interp: interp.stats.clone(),
         extra_axes,
         limits_held: axes.iter().all(|a| a.v_within && a.a_within && a.j_within),
+        jumps,
         axes,
         fd_acc_noise_mm_s2: acc_noise,
         fd_jerk_noise_mm_s3: jerk_noise,

@@ -21,6 +21,23 @@ pub struct Setpoint {
     pub feed: f64,
     /// Extra-axis values, if the program has extra axes.
     pub extra: Option<ExtraAxes>,
+    /// The row follows a jump in position: between the two the controller ran motion
+    /// ncsmooth cannot place (a G28 return, a G53 move, a move from an unknown position).
+    /// Finite differences restart here.
+    pub jump: bool,
+}
+
+/// A jump between two setpoint rows (see [`Setpoint::jump`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Jump {
+    /// Time of the row after the jump (s).
+    pub t_s: f64,
+    /// Last position before it (mm).
+    pub from: [f64; 3],
+    /// First position after it (mm).
+    pub to: [f64; 3],
+    /// Distance between the two (mm).
+    pub distance_mm: f64,
 }
 
 /// Finite-difference maxima per axis.
@@ -51,6 +68,12 @@ pub struct FdMeter {
 }
 
 impl FdMeter {
+    /// Forgets the rows so far (the maxima stay): the next row starts a new section.
+    pub fn restart(&mut self) {
+        self.len = 0;
+        self.last_acc = None;
+    }
+
     /// Feeds one row.
     pub fn push(&mut self, t: f64, x: [f64; 3]) {
         if self.len == 3 {
@@ -119,6 +142,11 @@ pub struct ExtraFdMeter {
 }
 
 impl ExtraFdMeter {
+    /// Forgets the rows so far (the maxima stay).
+    pub fn restart(&mut self) {
+        self.hist.clear();
+    }
+
     /// Feeds one row.
     pub fn push(&mut self, t: f64, x: ExtraAxes) {
         if self.hist.len() == 3 {
@@ -161,6 +189,8 @@ pub struct SetpointWriter<W: Write> {
     pub last: Option<(f64, [f64; 3])>,
     /// First row as printed.
     pub first: Option<(f64, [f64; 3])>,
+    /// Jumps between rows, in order.
+    pub jumps: Vec<Jump>,
 }
 
 /// Largest magnitude printed through the integer fast path of [`put`] (units of 1e-9).
@@ -278,6 +308,7 @@ impl<W: Write> SetpointWriter<W> {
             rows: 0,
             last: None,
             first: None,
+            jumps: Vec::new(),
         })
     }
     /// Writes one row.
@@ -295,6 +326,22 @@ impl<W: Write> SetpointWriter<W> {
         for &i in &self.extra_cols {
             self.line.push(b',');
             e[i] = put(&mut self.line, sp.extra.map_or(0.0, |e| e[i]), 9);
+        }
+        if sp.jump {
+            self.fd.restart();
+            self.extra_fd.restart();
+            if let Some((_, from)) = self.last {
+                let d = ((x[0] - from[0]).powi(2)
+                    + (x[1] - from[1]).powi(2)
+                    + (x[2] - from[2]).powi(2))
+                .sqrt();
+                self.jumps.push(Jump {
+                    t_s: t,
+                    from,
+                    to: x,
+                    distance_mm: d,
+                });
+            }
         }
         if !self.extra_cols.is_empty() {
             self.extra_fd.push(sp.t, e);
@@ -446,6 +493,7 @@ mod tests {
     fn csv_rows_and_extra_columns() {
         let mut w = SetpointWriter::new(Vec::new(), 1 << 6).unwrap();
         w.push(&Setpoint {
+            jump: false,
             t: 0.0,
             p: Vec3::new(1.0, 2.0, 3.0),
             feed: 0.0,
