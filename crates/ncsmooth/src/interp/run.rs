@@ -27,7 +27,7 @@ use super::{InterpOptions, InterpStats, Interpolator};
 use crate::feed::grid::ExtraRest;
 use crate::feed::{
     plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
-    StopReason,
+    StopReason, PRINT_RESOLUTION_MM,
 };
 use crate::geom::ParamCurve;
 use crate::path::{Toolpath, EXTRA_AXIS_NAMES};
@@ -179,7 +179,8 @@ pub struct AxisReport {
     pub v_max_mm_s: f64,
     /// Velocity limit (mm/s): `--vaxis`, else the larger of feed and rapid.
     pub v_limit_mm_s: f64,
-    /// `v_max <= v_limit` (within the printing noise).
+    /// `v_max <= v_limit`; when the limit is the feed (no `--vaxis`), up to one print unit
+    /// per period.
     pub v_within: bool,
     /// Largest finite-difference acceleration (mm/s^2).
     pub a_max_mm_s2: f64,
@@ -189,7 +190,8 @@ pub struct AxisReport {
     pub a_limit_mm_s2: f64,
     /// `a_max / a_limit`.
     pub a_ratio: f64,
-    /// `a_max <= a_limit + a_noise`.
+    /// `a_max <= a_limit` (the planner reserves for the finite-difference noise, see
+    /// [`crate::feed`]).
     pub a_within: bool,
     /// Largest finite-difference jerk (mm/s^3).
     pub j_max_mm_s3: f64,
@@ -200,7 +202,7 @@ pub struct AxisReport {
     pub j_limit_mm_s3: Option<f64>,
     /// `j_max / j_limit`, when limited.
     pub j_ratio: Option<f64>,
-    /// `j_max <= j_limit + j_noise` (true when not limited).
+    /// `j_max <= j_limit` (true when not limited).
     pub j_within: bool,
 }
 
@@ -243,11 +245,16 @@ pub struct PlanReport {
     /// finite-difference maxima. They have no limits of their own (see [`crate::feed::grid`]).
     pub extra_axes: Vec<ExtraAxisReport>,
     /// Finite-difference noise bound of the printed positions (0.5e-9 mm rounding):
-    /// acceleration `2e-9 / T^2` (mm/s^2).
+    /// acceleration `2e-9 / T^2` (mm/s^2). For information: the planner reserves for it
+    /// (and for the interpolator's landing errors), the limits are checked without it.
     pub fd_acc_noise_mm_s2: f64,
     /// Same for jerk: `4e-9 / T^3` (mm/s^3).
     pub fd_jerk_noise_mm_s3: f64,
-    /// Every axis within its velocity and acceleration limits (and jerk, when limited).
+    /// Every axis within its velocity and acceleration limits (and jerk, when limited),
+    /// measured on the printed setpoints without a noise allowance (limits too small for
+    /// the print resolution are refused by [`PlanOptions::validate`]). False when
+    /// junction-deviation corners or uncorrected interpolation steps were asked for and
+    /// exceeded them, or on a planner defect.
     pub limits_held: bool,
     /// Exact stops by reason (and corners blended by the junction-deviation rule).
     pub exact_stops: StopCounts,
@@ -491,19 +498,22 @@ pub fn execute<W: Write + Send>(
                 axis: ['x', 'y', 'z'][i],
                 v_max_mm_s: fd.v_max[i],
                 v_limit_mm_s: v_limit,
-                v_within: fd.v_max[i] <= v_limit * (1.0 + 1e-9) + 1e-9 / period,
+                // A per-axis limit holds strictly; the feed (a commanded speed, planned at
+                // its value) up to one print unit per period.
+                v_within: match popts.vaxis_mm_s {
+                    Some(_) => fd.v_max[i] <= v_limit,
+                    None => fd.v_max[i] <= v_limit * (1.0 + 1e-9) + PRINT_RESOLUTION_MM / period,
+                },
                 a_max_mm_s2: fd.a_max[i],
                 a_max_at_s: fd.a_max_t[i],
                 a_limit_mm_s2: a_limit,
                 a_ratio: fd.a_max[i] / a_limit,
-                a_within: fd.a_max[i] <= a_limit + acc_noise,
+                a_within: fd.a_max[i] <= a_limit,
                 j_max_mm_s3: fd.j_max[i],
                 j_max_at_s: fd.j_max_t[i],
                 j_limit_mm_s3: popts.jerk_mm_s3.map(|j| j[i]),
                 j_ratio: popts.jerk_mm_s3.map(|j| fd.j_max[i] / j[i]),
-                j_within: popts
-                    .jerk_mm_s3
-                    .is_none_or(|j| fd.j_max[i] <= j[i] + jerk_noise),
+                j_within: popts.jerk_mm_s3.is_none_or(|j| fd.j_max[i] <= j[i]),
             }
         })
         .collect();
