@@ -52,20 +52,18 @@ struct Stretch {
 }
 
 impl Stretch {
-    fn s_at(&self, t: f64) -> f64 {
+    /// Means of `s` and of the speed over `[lo, hi]` (inside the stretch). Written
+    /// without differences of powers of the times (`b^2 - a^2` of two times 100 s apart
+    /// loses 13 digits when the window is 1e-8 s short; see [`MovingAverage::sample`]).
+    fn means(&self, lo: f64, hi: f64) -> (f64, f64) {
         if self.rest {
-            return self.s0;
-        }
-        let tau = (t - self.t0).clamp(0.0, self.t1 - self.t0);
-        self.s0 + self.v0 * tau + 0.5 * self.a * tau * tau
-    }
-    /// Integral of `s` over `[lo, hi]` (inside the stretch).
-    fn integral(&self, lo: f64, hi: f64) -> f64 {
-        if self.rest {
-            return self.s0 * (hi - lo);
+            return (self.s0, 0.0);
         }
         let (a, b) = (lo - self.t0, hi - self.t0);
-        self.s0 * (b - a) + 0.5 * self.v0 * (b * b - a * a) + self.a * (b * b * b - a * a * a) / 6.0
+        (
+            self.s0 + 0.5 * self.v0 * (a + b) + self.a * (a * a + a * b + b * b) / 6.0,
+            self.v0 + 0.5 * self.a * (a + b),
+        )
     }
 }
 
@@ -104,16 +102,20 @@ impl MovingAverage {
         }
         self.t_known = self.t_known.max(st.t1);
     }
-    /// Filtered arc length and speed at `t` (`t <= t_known`).
+    /// Filtered arc length and speed at `t` (`t <= t_known`): the means of the plan's `s`
+    /// and speed over the window, as the span-weighted average of each stretch's own means
+    /// (a convex combination of values inside the window, so the rounding of the window's
+    /// ends, relative to the time, only moves weight between values that differ by the
+    /// speed times the window; the integral of each stretch from its start time loses the
+    /// digits of the window's length against the time).
     fn sample(&mut self, t: f64) -> (f64, f64) {
         let lo = t - self.w;
         while self.line.len() > 1 && self.line[0].t1 <= lo {
             self.line.pop_front();
         }
-        let mut sum = 0.0;
+        let (mut span, mut sum_s, mut sum_v) = (0.0, 0.0, 0.0);
         let mut rest_s: Option<f64> = None;
         let mut all_rest = true;
-        let (mut s_lo, mut s_hi) = (None, 0.0);
         for st in &self.line {
             if st.t0 >= t {
                 break;
@@ -122,11 +124,10 @@ impl MovingAverage {
                 continue;
             }
             let (a, b) = (st.t0.max(lo), st.t1.min(t));
-            sum += st.integral(a, b);
-            if s_lo.is_none() {
-                s_lo = Some(st.s_at(a));
-            }
-            s_hi = st.s_at(b);
+            let (ms, mv) = st.means(a, b);
+            span += b - a;
+            sum_s += (b - a) * ms;
+            sum_v += (b - a) * mv;
             if st.rest && rest_s.is_none_or(|s| s == st.s0) {
                 rest_s = Some(st.s0);
             } else {
@@ -136,10 +137,8 @@ impl MovingAverage {
         let (s, v) = match rest_s {
             // At rest over the whole window: exactly the rest point.
             Some(r) if all_rest => (r, 0.0),
-            _ => (
-                sum / self.w,
-                ((s_hi - s_lo.unwrap_or(s_hi)) / self.w).max(0.0),
-            ),
+            _ if span > 0.0 => (sum_s / span, (sum_v / span).max(0.0)),
+            _ => (self.last_s, 0.0),
         };
         // Monotone despite rounding (the interpolator never goes back).
         let s = s.max(self.last_s);
