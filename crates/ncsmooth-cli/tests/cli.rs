@@ -297,6 +297,49 @@ fn plan_with_jerk_reports_it_held() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// A jerk limit the printed setpoints cannot show at the period is refused before
+/// planning (exit 2, the reason and the smallest limit held, nothing written); it used to
+/// be planned at half its value and measured at 3 to 4 times it, with exit 0. A longer
+/// period resolves it, and the plan holds it there.
+#[test]
+fn plan_refuses_a_jerk_too_small_for_the_period() {
+    let d = tmpdir("plan-tiny-jerk");
+    let prog = write(&d, "p.ngc", b"G21 G1 F600 X2 Y0\nX2 Y1\nX0 Y1.5\nM2\n");
+    let rep = d.join("r.json");
+    let csv = d.join("s.csv");
+    let args = |period: &'static str| {
+        run(&[
+            "plan",
+            prog.to_str().unwrap(),
+            "--quiet",
+            "--jerk",
+            "1",
+            "--period",
+            period,
+            "--setpoints",
+            csv.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ])
+    };
+    let o = args("0.001");
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--jerk = 1 mm/s^3 cannot be held at period 0.001 s"),
+        "{err}"
+    );
+    assert!(!rep.exists() && !csv.exists());
+    let o = args("0.005");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(r["plan"]["limits_held"], true);
+    for a in r["plan"]["axes"].as_array().unwrap() {
+        assert!(a["j_max_mm_s3"].as_f64().unwrap() <= 1.0, "{a}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// Outputs that are not regular files are written in place, never replaced by a rename:
 /// a FIFO stays a FIFO (as `/dev/null` must stay a device when a root user writes `-o
 /// /dev/null`), and a symbolic link stays a link whose target receives the output.
