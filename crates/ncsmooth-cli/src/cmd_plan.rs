@@ -4,6 +4,13 @@
 //!
 //! The input may also be `builtin:butterfly`: the published butterfly NURBS as one curve
 //! (F 50 mm/s), for planning a smooth curve without a smoothing step.
+//!
+//! Limits the setpoints cannot show at the period (see [`ncsmooth::feed`]) are refused as
+//! bad input (exit 2) before planning. The planner holds every limit it accepts; setpoints
+//! measured beyond one ([`PlanReport::limits_held`] false) are an internal error (exit 1)
+//! and nothing is written, unless the user asked for motion beyond the limits
+//! (`--junction-dev` corners that were blended, `--no-arc-correction`): then the run
+//! succeeds and says which limits were exceeded.
 
 use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
@@ -321,6 +328,49 @@ fn execute_limited<W: Write + Send>(
     }
 }
 
+/// The options under which the user asked for motion beyond the limits, if they took
+/// effect: blended junction-deviation corners (velocity jumps) and uncorrected
+/// interpolation steps (each method's own setpoints).
+fn waivers(a: &PlanArgs, r: &PlanReport) -> Vec<&'static str> {
+    let mut w = Vec::new();
+    if a.junction_dev.is_some() && r.exact_stops.junction_blended > 0 {
+        w.push("--junction-dev");
+    }
+    if a.no_arc_correction {
+        w.push("--no-arc-correction");
+    }
+    w
+}
+
+/// The limits the measured setpoints exceed, or `None` when `r.limits_held`.
+fn broken_limits(r: &PlanReport) -> Option<String> {
+    if r.limits_held {
+        return None;
+    }
+    let mut out = Vec::new();
+    for x in &r.axes {
+        if !x.v_within {
+            out.push(format!(
+                "{} velocity {:.6} > {} mm/s",
+                x.axis, x.v_max_mm_s, x.v_limit_mm_s
+            ));
+        }
+        if !x.a_within {
+            out.push(format!(
+                "{} acceleration {:.6} > {} mm/s^2 at t = {:.4} s",
+                x.axis, x.a_max_mm_s2, x.a_limit_mm_s2, x.a_max_at_s
+            ));
+        }
+        if let (false, Some(j)) = (x.j_within, x.j_limit_mm_s3) {
+            out.push(format!(
+                "{} jerk {:.6} > {j} mm/s^3 at t = {:.4} s",
+                x.axis, x.j_max_mm_s3, x.j_max_at_s
+            ));
+        }
+    }
+    Some(out.join(", "))
+}
+
 /// Runs `plan`.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let outputs: Vec<(&str, &Path)> = [
@@ -450,6 +500,16 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
             None,
         ),
     };
+    let waived = waivers(&a, &report);
+    if let Some(broken) = broken_limits(&report) {
+        if waived.is_empty() {
+            anyhow::bail!("the plan does not hold its limits: {broken}; nothing written");
+        }
+        ui.status(format!(
+            "warning: limits exceeded as asked for by {}: {broken}",
+            waived.join(" and ")
+        ));
+    }
     let total = t0.elapsed().as_secs_f64();
     let run = PlanRunReport {
         input: name.clone(),
@@ -507,6 +567,75 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clap::Parser;
+    use ncsmooth::geom::Vec3;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        plan: PlanArgs,
+    }
+
+    fn report(popts: &PlanOptions, iopts: &InterpOptions) -> PlanReport {
+        let tp = Toolpath::from_polyline(
+            &[
+                Vec3::ZERO,
+                Vec3::new(5.0, 0.0, 0.0),
+                Vec3::new(5.0, 5.0, 0.0),
+            ],
+            None,
+        );
+        execute(&tp, popts, iopts, std::io::sink()).unwrap().0
+    }
+
+    #[test]
+    fn measured_violations_are_named_and_waived_only_when_asked_for() {
+        let popts = PlanOptions {
+            jerk_mm_s3: Some([2000.0; 3]),
+            ..Default::default()
+        };
+        let held = report(&popts, &InterpOptions::default());
+        assert!(held.limits_held);
+        assert_eq!(broken_limits(&held), None);
+        // A report whose setpoints exceed a limit names it, and a plain run has no waiver:
+        // `run` fails (exit 1, nothing committed).
+        let mut broken = held.clone();
+        broken.limits_held = false;
+        broken.axes[1].j_within = false;
+        broken.axes[0].a_within = false;
+        let msg = broken_limits(&broken).unwrap();
+        assert!(
+            msg.contains("y jerk") && msg.contains("x acceleration"),
+            "{msg}"
+        );
+        assert!(
+            !msg.contains("x jerk") && !msg.contains("velocity"),
+            "{msg}"
+        );
+        let args = |extra: &[&str]| {
+            let mut v = vec!["plan", "f.ngc"];
+            v.extend_from_slice(extra);
+            Cli::parse_from(v).plan
+        };
+        assert!(waivers(&args(&[]), &broken).is_empty());
+        assert!(waivers(&args(&["--junction-dev", "0.01"]), &broken).is_empty());
+        assert_eq!(
+            waivers(&args(&["--no-arc-correction"]), &broken),
+            ["--no-arc-correction"]
+        );
+        // Junction deviation waives only when it blended a corner.
+        let jd = PlanOptions {
+            junction_dev_mm: Some(0.01),
+            ..Default::default()
+        };
+        let blended = report(&jd, &InterpOptions::default());
+        assert_eq!(blended.exact_stops.junction_blended, 1);
+        assert!(!blended.limits_held, "a velocity jump at the corner");
+        assert_eq!(
+            waivers(&args(&["--junction-dev", "0.01"]), &blended),
+            ["--junction-dev"]
+        );
+    }
 
     #[test]
     fn newlines_are_counted_across_chunks() {

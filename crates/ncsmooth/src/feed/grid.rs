@@ -544,10 +544,10 @@ pub fn caps_of(opts: &PlanOptions) -> Caps {
         jerk,
         acc: opts
             .acc_mm_s2
-            .map(|a| a * super::ACC_PLANNING_FACTOR * share),
+            .map(|a| super::planned_acc(a, opts.period_s) * share),
         vaxis: opts
             .vaxis_mm_s
-            .map(|v| v.map(|x| x * super::VAXIS_PLANNING_FACTOR)),
+            .map(|v| v.map(|x| super::planned_vaxis(x, opts.period_s))),
         period_s: opts.period_s,
         chord_error_mm: opts.chord_error_mm,
     }

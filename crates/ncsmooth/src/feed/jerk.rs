@@ -11,9 +11,17 @@
 //!
 //! ## Scheme: trapezoid, then a moving average in time
 //! 1. The trapezoid planner ([`super::lookahead`]) plans `s(t)` with a *scalar* tangential
-//!    acceleration limit `|s''| <= U` ([`JerkCaps::u_max_mm_s2`]), `U` =
+//!    acceleration limit `|s''| <= U` ([`JerkCaps::u_max_mm_s2`]), `U` at most
 //!    `(1 - `[`CURVATURE_ACC_SHARE`]`) min_i A_i` (planning factor applied), and the
-//!    curvature limit `v^2 |K_i| <= `[`CURVATURE_ACC_SHARE`]` A_i`.
+//!    curvature limit `v^2 |K_i| <= `[`CURVATURE_ACC_SHARE`]` A_i`. `U` also sets the
+//!    window of point 2, `W = 2 U / (share_t J)`, and a rest-to-rest ramp to the top speed
+//!    `V` costs `V / U` in the plan plus `W` in the filter; `V / U + 2 U / (share_t J)`
+//!    is least at `U* = sqrt(V share_t J / 2)`. So `U = min((1 - share_c) A, U*)`, with
+//!    `V` the larger of the feed and rapid rates. At the usual settings (50 mm/s,
+//!    500 mm/s^2, 5000 mm/s^3) `U*` = 248 mm/s^2 is above the acceleration share
+//!    (148.5 mm/s^2) and changes nothing; when the jerk is small against the
+//!    acceleration it keeps the window, which every stop waits out twice, from growing
+//!    as `A / J` (at 500 mm/s^2 and 20 mm/s^3 it was 50 s; it is 4 s).
 //! 2. The setpoint time line is the moving average of that plan over a window `W`
 //!    ([`JerkCaps::window_s`]): `s_f(t) = (1/W) int_{t-W}^{t} s`. Then
 //!    `s_f' = mean of s'`, `|s_f''| = |s'(t) - s'(t-W)| / W <= U` and
@@ -63,9 +71,14 @@
 //! ## Finite-difference noise
 //! Positions are printed to 1e-9 mm and the interpolator lands on the planned arc length
 //! to [`crate::interp::ARC_CORRECTION_TOL_MM`]: a third difference of such errors is up to
-//! [`JERK_NOISE_MM`]`/T^3` (1000 mm/s^3 at T = 2 ms). The jerk limits are planned at
-//! `0.99 J - JERK_NOISE_MM / T^3` (at least [`MIN_JERK_FRACTION`] of `J`), so the measured
-//! finite-difference jerk holds the limit itself, not only up to the noise.
+//! [`JERK_NOISE_MM`]`/T^3` (8 mm/s^3 at T = 1 ms, 1 mm/s^3 at T = 2 ms). The jerk limits
+//! are planned at `0.99 J - JERK_NOISE_MM / T^3` ([`planned_jerk`]), so the measured
+//! finite-difference jerk holds the limit itself, not only up to the noise. A limit for
+//! which that leaves less than [`super::MIN_LIMIT_FRACTION`] of `J` (below
+//! [`min_jerk_mm_s3`], 16.3 mm/s^3 at 1 ms) is refused by
+//! [`super::PlanOptions::validate`]: the printed setpoints cannot show it held (earlier
+//! versions planned such a limit at half its value and measured rounding alone, e.g.
+//! 3 to 4 mm/s^3 for `--jerk 1` at 1 ms).
 //!
 //! ## Limits of the scheme
 //! It is conservative, not time-optimal: the shares are fixed, `|s''| <= U` is global (not
@@ -92,8 +105,18 @@ pub const FD_STEP_FRACTION: f64 = 0.75;
 pub const JERK_NOISE_MM: f64 = 8e-9;
 /// Planning factor of the jerk limits before the noise allowance.
 pub const JERK_PLANNING_FACTOR: f64 = 0.99;
-/// Smallest fraction of a jerk limit planned when the noise allowance would eat more.
-pub const MIN_JERK_FRACTION: f64 = 0.5;
+
+/// The jerk limit `j` (mm/s^3) as planned at period `period_s` (s): the planning factor
+/// and the finite-difference noise deducted (see the module doc).
+pub fn planned_jerk(j: f64, period_s: f64) -> f64 {
+    JERK_PLANNING_FACTOR * j - JERK_NOISE_MM / period_s.powi(3)
+}
+
+/// Smallest jerk limit (mm/s^3) held at period `period_s`: below it [`planned_jerk`] would
+/// be less than [`super::MIN_LIMIT_FRACTION`] of the limit.
+pub fn min_jerk_mm_s3(period_s: f64) -> f64 {
+    JERK_NOISE_MM / period_s.powi(3) / (JERK_PLANNING_FACTOR - super::MIN_LIMIT_FRACTION)
+}
 
 /// The jerk-mode limits as the planner uses them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,14 +132,23 @@ pub struct JerkCaps {
 }
 
 impl JerkCaps {
-    /// Jerk caps from the user's limits: acceleration `acc` (already at the planning
-    /// factor), jerk `jerk`, period `period_s`.
-    pub fn new(acc: [f64; 3], jerk: [f64; 3], period_s: f64) -> JerkCaps {
-        let noise = JERK_NOISE_MM / period_s.powi(3);
-        let j = jerk.map(|j| (JERK_PLANNING_FACTOR * j - noise).max(MIN_JERK_FRACTION * j));
+    /// Jerk caps from the user's limits: acceleration `acc` (already as planned, see
+    /// [`super::planned_acc`]), jerk `jerk` (valid at `period_s`, see
+    /// [`super::PlanOptions::validate`]), period `period_s`, and the top speed `v_top`
+    /// (the larger of the feed and rapid rates, mm/s) that sets `U` (point 1 of the
+    /// module doc).
+    pub fn new(acc: [f64; 3], jerk: [f64; 3], period_s: f64, v_top: f64) -> JerkCaps {
+        let j = jerk.map(|j| planned_jerk(j, period_s));
+        debug_assert!(
+            j.iter()
+                .zip(jerk)
+                .all(|(p, j)| *p >= super::MIN_LIMIT_FRACTION * j),
+            "jerk {jerk:?} is below the floor at period {period_s}"
+        );
         let a_min = acc.iter().copied().fold(f64::INFINITY, f64::min);
         let j_min = j.iter().copied().fold(f64::INFINITY, f64::min);
-        let u = (1.0 - CURVATURE_ACC_SHARE) * a_min;
+        let u_star = (v_top * TANGENTIAL_JERK_SHARE * j_min / 2.0).sqrt();
+        let u = ((1.0 - CURVATURE_ACC_SHARE) * a_min).min(u_star);
         JerkCaps {
             jerk_mm_s3: j,
             u_max_mm_s2: u,
@@ -214,7 +246,7 @@ mod tests {
 
     #[test]
     fn window_and_speed_caps() {
-        let c = JerkCaps::new([500.0; 3], [5000.0; 3], 0.001);
+        let c = JerkCaps::new([500.0; 3], [5000.0; 3], 0.001, 50.0);
         // U = (1 - 0.7) 500 = 150, J planned = 4950 - 8: W = 2 U / (0.5 * 4942).
         let u = (1.0 - CURVATURE_ACC_SHARE) * 500.0;
         assert!((c.u_max_mm_s2 - u).abs() < 1e-12);
@@ -248,5 +280,42 @@ mod tests {
             c.speed_cap_x(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO),
             f64::INFINITY
         );
+    }
+
+    #[test]
+    fn small_jerk_takes_the_tangential_limit_that_minimises_the_ramp() {
+        // 500 mm/s^2 and 20 mm/s^3 at 50 mm/s: the acceleration share (148.5 mm/s^2)
+        // would make the window W = 2 U / (J / 2) about 50 s. U* minimises the ramp's
+        // cost V / U + W.
+        let (v, t) = (50.0, 0.001);
+        let c = JerkCaps::new([495.0; 3], [20.0; 3], t, v);
+        let j = planned_jerk(20.0, t);
+        assert!((j - (0.99 * 20.0 - 8.0)).abs() < 1e-12);
+        let cost = |u: f64| v / u + 2.0 * u / (TANGENTIAL_JERK_SHARE * j);
+        let u = c.u_max_mm_s2;
+        assert!(u < (1.0 - CURVATURE_ACC_SHARE) * 495.0);
+        assert!((u - (v * TANGENTIAL_JERK_SHARE * j / 2.0).sqrt()).abs() < 1e-12);
+        for f in [0.5, 0.9, 0.99, 1.01, 1.1, 2.0] {
+            assert!(cost(u) < cost(u * f), "{f}");
+        }
+        assert!((c.window_s - 2.0 * u / (TANGENTIAL_JERK_SHARE * j)).abs() < 1e-12);
+        assert!(c.window_s < 5.0, "{}", c.window_s);
+        // At the usual settings the acceleration share stays the limit.
+        let usual = JerkCaps::new([495.0; 3], [5000.0; 3], t, v);
+        assert_eq!(usual.u_max_mm_s2, (1.0 - CURVATURE_ACC_SHARE) * 495.0);
+    }
+
+    #[test]
+    fn the_jerk_floor_leaves_the_minimum_fraction() {
+        for t in [1e-4, 1e-3, 2e-3, 0.05] {
+            let m = min_jerk_mm_s3(t);
+            let frac = planned_jerk(m, t) / m;
+            assert!(
+                (frac - crate::feed::MIN_LIMIT_FRACTION).abs() < 1e-12,
+                "{t}: {frac}"
+            );
+            // At 1 ms one print unit of third difference is 1 mm/s^3: the floor is a few.
+            assert!(m * t.powi(3) / 1e-9 > 10.0 && m * t.powi(3) / 1e-9 < 20.0);
+        }
     }
 }

@@ -58,6 +58,26 @@
 //!   1 % reserve for what happens between the grid checks and for the interpolator's
 //!   sub-micrometre position errors (both show up in finite differences); the per-axis
 //!   velocity limits likewise at [`VAXIS_PLANNING_FACTOR`].
+//!
+//! ## Limits the setpoints can show ([`PlanOptions::validate`])
+//! The limits are measured on the setpoints as printed (positions to
+//! [`PRINT_RESOLUTION_MM`]) by finite differences at the period `T`, and must hold there
+//! without any allowance ([`crate::interp::PlanReport::limits_held`]). Rounding and the
+//! interpolator's arc-length landing put errors of up to half a print unit on every
+//! position; a `k`-th difference weighs them with binomial weights, so it shows up to
+//! [`VEL_NOISE_MM`]` / T`, [`ACC_NOISE_MM`]` / T^2` and [`jerk::JERK_NOISE_MM`]` / T^3`
+//! of velocity, acceleration and jerk on a motion that holds its limit exactly. Each
+//! limit is therefore planned with that noise deducted on top of the share the grid's
+//! between-check terms need ([`planned_acc`], [`planned_vaxis`], [`jerk::planned_jerk`]);
+//! at the usual settings the relative reserves above are larger and nothing changes.
+//! A limit so small that the deduction would leave less than [`MIN_LIMIT_FRACTION`] of it
+//! is **refused** ([`PlanOptionsError::Unresolvable`], with the smallest value that can
+//! be held): no motion printed at that resolution and period can show it (any motion
+//! from rest needs a third difference of at least one print unit somewhere, i.e. a
+//! jerk of `1e-9 / T^3` mm/s^3, 1 mm/s^3 at 1 ms). The floors scale as `1/T`, `1/T^2`
+//! and `1/T^3`: a longer period resolves smaller limits. The feed and rapid rates are
+//! commanded speeds, planned at their value; the measured axis speeds may exceed them by
+//! one print unit per period, and rates below [`FEED_NOISE_SHARE`] of that are refused.
 //! * Every stop is held until the next period boundary, so the stop point itself is a
 //!   setpoint (the corner is not cut between two setpoints) and the next motion starts on
 //!   the period grid.
@@ -84,6 +104,63 @@ pub const ACC_PLANNING_FACTOR: f64 = 0.99;
 /// interpolator's sub-micrometre position errors; inside curved intervals the velocity
 /// caps already allow for the tangent's turn (see [`grid`]).
 pub const VAXIS_PLANNING_FACTOR: f64 = 0.999;
+/// Resolution of the printed setpoint positions (mm): 9 decimals.
+pub const PRINT_RESOLUTION_MM: f64 = 1e-9;
+/// Largest error of a first difference of printed positions (mm): rounding (2 x 0.5e-9)
+/// plus the interpolator's arc-length landing (2 x 0.5e-9).
+pub const VEL_NOISE_MM: f64 = 2e-9;
+/// Largest error of a second difference of printed positions (mm): rounding and landing
+/// errors of 0.5e-9 each, weights 1, 2, 1.
+pub const ACC_NOISE_MM: f64 = 4e-9;
+/// Share of an acceleration limit the grid's between-check terms may use
+/// ([`grid::TANGENT_SHARE`] + [`grid::PRODUCT_SHARE`] + [`grid::MAX_CURVATURE_BEND`]);
+/// the rest of the [`ACC_PLANNING_FACTOR`] reserve covers the finite-difference noise
+/// until that exceeds it.
+pub const ACC_CHECK_SHARE: f64 =
+    grid::TANGENT_SHARE + grid::PRODUCT_SHARE + grid::MAX_CURVATURE_BEND;
+/// Share of a per-axis velocity limit the tangent's turn inside a curved interval may use:
+/// `1 / cos(`[`grid::MAX_TURN_DEG`]` / 2) - 1` = 6.09e-4, rounded up.
+pub const VAXIS_CHECK_SHARE: f64 = 6.1e-4;
+// The between-check shares fit inside the relative reserves.
+const _: () = assert!(ACC_CHECK_SHARE < 1.0 - ACC_PLANNING_FACTOR);
+const _: () = assert!(VAXIS_CHECK_SHARE < 1.0 - VAXIS_PLANNING_FACTOR);
+/// Smallest fraction of a limit left after the noise deduction; a smaller limit is refused
+/// (see the module doc).
+pub const MIN_LIMIT_FRACTION: f64 = 0.5;
+/// Largest share of the feed or rapid rate the print noise of a measured axis speed,
+/// one print unit per period, may be; slower rates are refused.
+pub const FEED_NOISE_SHARE: f64 = 1e-3;
+
+/// The acceleration limit `a` (mm/s^2) as planned at period `period_s` (s): the
+/// [`ACC_PLANNING_FACTOR`] reserve, or the grid's share plus the finite-difference noise
+/// when that is larger (see the module doc).
+pub fn planned_acc(a: f64, period_s: f64) -> f64 {
+    (ACC_PLANNING_FACTOR * a)
+        .min((1.0 - ACC_CHECK_SHARE) * a - ACC_NOISE_MM / (period_s * period_s))
+}
+
+/// The per-axis velocity limit `v` (mm/s) as planned at period `period_s` (s), like
+/// [`planned_acc`].
+pub fn planned_vaxis(v: f64, period_s: f64) -> f64 {
+    (VAXIS_PLANNING_FACTOR * v).min((1.0 - VAXIS_CHECK_SHARE) * v - VEL_NOISE_MM / period_s)
+}
+
+/// Smallest acceleration limit (mm/s^2) held at period `period_s`: below it
+/// [`planned_acc`] would be less than [`MIN_LIMIT_FRACTION`] of the limit.
+pub fn min_acc_mm_s2(period_s: f64) -> f64 {
+    ACC_NOISE_MM / (period_s * period_s) / (1.0 - ACC_CHECK_SHARE - MIN_LIMIT_FRACTION)
+}
+
+/// Smallest per-axis velocity limit (mm/s) held at period `period_s`.
+pub fn min_vaxis_mm_s(period_s: f64) -> f64 {
+    VEL_NOISE_MM / period_s / (1.0 - VAXIS_CHECK_SHARE - MIN_LIMIT_FRACTION)
+}
+
+/// Smallest feed or rapid rate (mm/s) at period `period_s`: one print unit per period is
+/// [`FEED_NOISE_SHARE`] of it.
+pub fn min_feed_mm_s(period_s: f64) -> f64 {
+    PRINT_RESOLUTION_MM / period_s / FEED_NOISE_SHARE
+}
 
 /// Machine limits and planning settings.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -125,43 +202,104 @@ impl Default for PlanOptions {
 
 /// Invalid planning options.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{name} = {value} is invalid: a positive finite number is required")]
-pub struct PlanOptionsError {
-    /// Option name.
-    pub name: &'static str,
-    /// Offending value.
-    pub value: f64,
+pub enum PlanOptionsError {
+    /// Not a positive finite number.
+    #[error("{name} = {value} is invalid: a positive finite number is required")]
+    NotPositive {
+        /// Option name.
+        name: &'static str,
+        /// Offending value.
+        value: f64,
+    },
+    /// A limit too small for the setpoints to show at this period (see the module doc).
+    #[error(
+        "{name} = {value} {unit} cannot be held at period {period_s} s: setpoints are printed \
+         to 1e-9 mm, and rounding and interpolation alone show up to {noise:.4e} {unit} in \
+         their finite differences; the smallest {name} held at this period is {min:.4e} {unit} \
+         (it scales as 1/period^{order}: a longer period allows smaller limits)"
+    )]
+    Unresolvable {
+        /// Option name.
+        name: &'static str,
+        /// Offending value.
+        value: f64,
+        /// Unit of the value.
+        unit: &'static str,
+        /// Finite-difference noise of the printed setpoints at this period.
+        noise: f64,
+        /// Smallest value held at this period.
+        min: f64,
+        /// The period (s).
+        period_s: f64,
+        /// Order of the finite difference (1 velocity, 2 acceleration, 3 jerk).
+        order: u8,
+    },
 }
 
 fn positive(name: &'static str, value: f64) -> Result<(), PlanOptionsError> {
     if value > 0.0 && value.is_finite() {
         Ok(())
     } else {
-        Err(PlanOptionsError { name, value })
+        Err(PlanOptionsError::NotPositive { name, value })
     }
 }
 
+/// `value` (already positive) is at least `min`; else [`PlanOptionsError::Unresolvable`].
+fn resolvable(
+    name: &'static str,
+    value: f64,
+    unit: &'static str,
+    order: u8,
+    min: f64,
+    period_s: f64,
+) -> Result<(), PlanOptionsError> {
+    if value >= min {
+        return Ok(());
+    }
+    let noise = match order {
+        1 => VEL_NOISE_MM / period_s,
+        2 => ACC_NOISE_MM / period_s.powi(2),
+        _ => jerk::JERK_NOISE_MM / period_s.powi(3),
+    };
+    Err(PlanOptionsError::Unresolvable {
+        name,
+        value,
+        unit,
+        noise,
+        min,
+        period_s,
+        order,
+    })
+}
+
 impl PlanOptions {
-    /// Checks that every limit is a positive finite number.
+    /// Checks that every limit is a positive finite number, and large enough for the
+    /// setpoints at the period to show it held (see the module doc).
     pub fn validate(&self) -> Result<(), PlanOptionsError> {
+        let t = self.period_s;
+        positive("period", t)?;
         positive("feed", self.feed_mm_s)?;
+        resolvable("feed", self.feed_mm_s, "mm/s", 1, min_feed_mm_s(t), t)?;
         if let Some(r) = self.rapid_mm_s {
             positive("rapid", r)?;
+            resolvable("rapid", r, "mm/s", 1, min_feed_mm_s(t), t)?;
         }
         for a in self.acc_mm_s2 {
             positive("acc", a)?;
+            resolvable("acc", a, "mm/s^2", 2, min_acc_mm_s2(t), t)?;
         }
         if let Some(v) = self.jerk_mm_s3 {
             for a in v {
                 positive("jerk", a)?;
+                resolvable("jerk", a, "mm/s^3", 3, jerk::min_jerk_mm_s3(t), t)?;
             }
         }
         if let Some(v) = self.vaxis_mm_s {
             for a in v {
                 positive("vaxis", a)?;
+                resolvable("vaxis", a, "mm/s", 1, min_vaxis_mm_s(t), t)?;
             }
         }
-        positive("period", self.period_s)?;
         positive("chord-error", self.chord_error_mm)?;
         if let Some(j) = self.junction_dev_mm {
             positive("junction-dev", j)?;
@@ -176,9 +314,10 @@ impl PlanOptions {
     pub fn jerk_caps(&self) -> Option<jerk::JerkCaps> {
         self.jerk_mm_s3.map(|j| {
             jerk::JerkCaps::new(
-                self.acc_mm_s2.map(|a| a * ACC_PLANNING_FACTOR),
+                self.acc_mm_s2.map(|a| planned_acc(a, self.period_s)),
                 j,
                 self.period_s,
+                self.feed_mm_s.max(self.rapid()),
             )
         })
     }
@@ -229,5 +368,103 @@ impl StopCounts {
             StopReason::Gap => self.gap += 1,
             StopReason::End => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn check_shares_cover_the_grid_terms() {
+        let turn = (grid::MAX_TURN_DEG / 2.0).to_radians();
+        assert!(VAXIS_CHECK_SHARE >= 1.0 / turn.cos() - 1.0);
+    }
+
+    #[test]
+    fn usual_limits_are_planned_at_their_factor_and_tiny_ones_refused() {
+        let t = 0.001;
+        // The usual settings: the relative reserves, bit for bit.
+        assert_eq!(planned_acc(500.0, t), 500.0 * ACC_PLANNING_FACTOR);
+        assert_eq!(planned_vaxis(50.0, t), 50.0 * VAXIS_PLANNING_FACTOR);
+        // Small limits: the noise deducted, at the floor the minimum fraction left.
+        let a = min_acc_mm_s2(t);
+        assert!((planned_acc(a, t) / a - MIN_LIMIT_FRACTION).abs() < 1e-12);
+        let v = min_vaxis_mm_s(t);
+        assert!((planned_vaxis(v, t) / v - MIN_LIMIT_FRACTION).abs() < 1e-12);
+        assert!(planned_acc(4.0 * a, t) < 4.0 * a * ACC_PLANNING_FACTOR);
+        let ok = PlanOptions {
+            acc_mm_s2: [a * 1.0001; 3],
+            jerk_mm_s3: Some([jerk::min_jerk_mm_s3(t) * 1.0001; 3]),
+            vaxis_mm_s: Some([v * 1.0001; 3]),
+            ..Default::default()
+        };
+        assert_eq!(ok.validate(), Ok(()));
+        let refused = |o: PlanOptions, which: &str| match o.validate() {
+            Err(PlanOptionsError::Unresolvable {
+                name, value, min, ..
+            }) => {
+                assert_eq!(name, which);
+                assert!(value < min);
+            }
+            other => panic!("{which}: {other:?}"),
+        };
+        refused(
+            PlanOptions {
+                acc_mm_s2: [1.0, a * 0.999, 1.0],
+                ..ok.clone()
+            },
+            "acc",
+        );
+        refused(
+            PlanOptions {
+                jerk_mm_s3: Some([1.0; 3]),
+                ..ok.clone()
+            },
+            "jerk",
+        );
+        refused(
+            PlanOptions {
+                vaxis_mm_s: Some([1.0, 1.0, v * 0.999]),
+                ..ok.clone()
+            },
+            "vaxis",
+        );
+        refused(
+            PlanOptions {
+                feed_mm_s: min_feed_mm_s(t) * 0.999,
+                ..ok.clone()
+            },
+            "feed",
+        );
+        // A longer period resolves the same limits.
+        let slow = PlanOptions {
+            jerk_mm_s3: Some([1.0; 3]),
+            period_s: 0.005,
+            ..ok.clone()
+        };
+        assert_eq!(slow.validate(), Ok(()));
+        let msg = PlanOptions {
+            jerk_mm_s3: Some([1.0; 3]),
+            ..Default::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(
+            msg.starts_with("jerk = 1 mm/s^3 cannot be held at period 0.001 s"),
+            "{msg}"
+        );
+        assert_eq!(
+            PlanOptions {
+                acc_mm_s2: [0.0; 3],
+                ..Default::default()
+            }
+            .validate(),
+            Err(PlanOptionsError::NotPositive {
+                name: "acc",
+                value: 0.0
+            })
+        );
     }
 }

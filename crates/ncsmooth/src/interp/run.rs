@@ -27,7 +27,7 @@ use super::{InterpOptions, InterpStats, Interpolator};
 use crate::feed::grid::ExtraRest;
 use crate::feed::{
     plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
-    StopReason,
+    StopReason, PRINT_RESOLUTION_MM,
 };
 use crate::geom::ParamCurve;
 use crate::path::{Toolpath, EXTRA_AXIS_NAMES};
@@ -52,20 +52,18 @@ struct Stretch {
 }
 
 impl Stretch {
-    fn s_at(&self, t: f64) -> f64 {
+    /// Means of `s` and of the speed over `[lo, hi]` (inside the stretch). Written
+    /// without differences of powers of the times (`b^2 - a^2` of two times 100 s apart
+    /// loses 13 digits when the window is 1e-8 s short; see [`MovingAverage::sample`]).
+    fn means(&self, lo: f64, hi: f64) -> (f64, f64) {
         if self.rest {
-            return self.s0;
-        }
-        let tau = (t - self.t0).clamp(0.0, self.t1 - self.t0);
-        self.s0 + self.v0 * tau + 0.5 * self.a * tau * tau
-    }
-    /// Integral of `s` over `[lo, hi]` (inside the stretch).
-    fn integral(&self, lo: f64, hi: f64) -> f64 {
-        if self.rest {
-            return self.s0 * (hi - lo);
+            return (self.s0, 0.0);
         }
         let (a, b) = (lo - self.t0, hi - self.t0);
-        self.s0 * (b - a) + 0.5 * self.v0 * (b * b - a * a) + self.a * (b * b * b - a * a * a) / 6.0
+        (
+            self.s0 + 0.5 * self.v0 * (a + b) + self.a * (a * a + a * b + b * b) / 6.0,
+            self.v0 + 0.5 * self.a * (a + b),
+        )
     }
 }
 
@@ -104,16 +102,20 @@ impl MovingAverage {
         }
         self.t_known = self.t_known.max(st.t1);
     }
-    /// Filtered arc length and speed at `t` (`t <= t_known`).
+    /// Filtered arc length and speed at `t` (`t <= t_known`): the means of the plan's `s`
+    /// and speed over the window, as the span-weighted average of each stretch's own means
+    /// (a convex combination of values inside the window, so the rounding of the window's
+    /// ends, relative to the time, only moves weight between values that differ by the
+    /// speed times the window; the integral of each stretch from its start time loses the
+    /// digits of the window's length against the time).
     fn sample(&mut self, t: f64) -> (f64, f64) {
         let lo = t - self.w;
         while self.line.len() > 1 && self.line[0].t1 <= lo {
             self.line.pop_front();
         }
-        let mut sum = 0.0;
+        let (mut span, mut sum_s, mut sum_v) = (0.0, 0.0, 0.0);
         let mut rest_s: Option<f64> = None;
         let mut all_rest = true;
-        let (mut s_lo, mut s_hi) = (None, 0.0);
         for st in &self.line {
             if st.t0 >= t {
                 break;
@@ -122,11 +124,10 @@ impl MovingAverage {
                 continue;
             }
             let (a, b) = (st.t0.max(lo), st.t1.min(t));
-            sum += st.integral(a, b);
-            if s_lo.is_none() {
-                s_lo = Some(st.s_at(a));
-            }
-            s_hi = st.s_at(b);
+            let (ms, mv) = st.means(a, b);
+            span += b - a;
+            sum_s += (b - a) * ms;
+            sum_v += (b - a) * mv;
             if st.rest && rest_s.is_none_or(|s| s == st.s0) {
                 rest_s = Some(st.s0);
             } else {
@@ -136,10 +137,8 @@ impl MovingAverage {
         let (s, v) = match rest_s {
             // At rest over the whole window: exactly the rest point.
             Some(r) if all_rest => (r, 0.0),
-            _ => (
-                sum / self.w,
-                ((s_hi - s_lo.unwrap_or(s_hi)) / self.w).max(0.0),
-            ),
+            _ if span > 0.0 => (sum_s / span, (sum_v / span).max(0.0)),
+            _ => (self.last_s, 0.0),
         };
         // Monotone despite rounding (the interpolator never goes back).
         let s = s.max(self.last_s);
@@ -179,7 +178,8 @@ pub struct AxisReport {
     pub v_max_mm_s: f64,
     /// Velocity limit (mm/s): `--vaxis`, else the larger of feed and rapid.
     pub v_limit_mm_s: f64,
-    /// `v_max <= v_limit` (within the printing noise).
+    /// `v_max <= v_limit`; when the limit is the feed (no `--vaxis`), up to one print unit
+    /// per period.
     pub v_within: bool,
     /// Largest finite-difference acceleration (mm/s^2).
     pub a_max_mm_s2: f64,
@@ -189,7 +189,8 @@ pub struct AxisReport {
     pub a_limit_mm_s2: f64,
     /// `a_max / a_limit`.
     pub a_ratio: f64,
-    /// `a_max <= a_limit + a_noise`.
+    /// `a_max <= a_limit` (the planner reserves for the finite-difference noise, see
+    /// [`crate::feed`]).
     pub a_within: bool,
     /// Largest finite-difference jerk (mm/s^3).
     pub j_max_mm_s3: f64,
@@ -200,7 +201,7 @@ pub struct AxisReport {
     pub j_limit_mm_s3: Option<f64>,
     /// `j_max / j_limit`, when limited.
     pub j_ratio: Option<f64>,
-    /// `j_max <= j_limit + j_noise` (true when not limited).
+    /// `j_max <= j_limit` (true when not limited).
     pub j_within: bool,
 }
 
@@ -243,11 +244,16 @@ pub struct PlanReport {
     /// finite-difference maxima. They have no limits of their own (see [`crate::feed::grid`]).
     pub extra_axes: Vec<ExtraAxisReport>,
     /// Finite-difference noise bound of the printed positions (0.5e-9 mm rounding):
-    /// acceleration `2e-9 / T^2` (mm/s^2).
+    /// acceleration `2e-9 / T^2` (mm/s^2). For information: the planner reserves for it
+    /// (and for the interpolator's landing errors), the limits are checked without it.
     pub fd_acc_noise_mm_s2: f64,
     /// Same for jerk: `4e-9 / T^3` (mm/s^3).
     pub fd_jerk_noise_mm_s3: f64,
-    /// Every axis within its velocity and acceleration limits (and jerk, when limited).
+    /// Every axis within its velocity and acceleration limits (and jerk, when limited),
+    /// measured on the printed setpoints without a noise allowance (limits too small for
+    /// the print resolution are refused by [`PlanOptions::validate`]). False when
+    /// junction-deviation corners or uncorrected interpolation steps were asked for and
+    /// exceeded them, or on a planner defect.
     pub limits_held: bool,
     /// Jumps between setpoint rows: the machine stopped, the controller ran motion that
     /// ncsmooth cannot place (a G28/G30 return, a G53 move, a move from a position the
@@ -498,19 +504,22 @@ pub fn execute<W: Write + Send>(
                 axis: ['x', 'y', 'z'][i],
                 v_max_mm_s: fd.v_max[i],
                 v_limit_mm_s: v_limit,
-                v_within: fd.v_max[i] <= v_limit * (1.0 + 1e-9) + 1e-9 / period,
+                // A per-axis limit holds strictly; the feed (a commanded speed, planned at
+                // its value) up to one print unit per period.
+                v_within: match popts.vaxis_mm_s {
+                    Some(_) => fd.v_max[i] <= v_limit,
+                    None => fd.v_max[i] <= v_limit * (1.0 + 1e-9) + PRINT_RESOLUTION_MM / period,
+                },
                 a_max_mm_s2: fd.a_max[i],
                 a_max_at_s: fd.a_max_t[i],
                 a_limit_mm_s2: a_limit,
                 a_ratio: fd.a_max[i] / a_limit,
-                a_within: fd.a_max[i] <= a_limit + acc_noise,
+                a_within: fd.a_max[i] <= a_limit,
                 j_max_mm_s3: fd.j_max[i],
                 j_max_at_s: fd.j_max_t[i],
                 j_limit_mm_s3: popts.jerk_mm_s3.map(|j| j[i]),
                 j_ratio: popts.jerk_mm_s3.map(|j| fd.j_max[i] / j[i]),
-                j_within: popts
-                    .jerk_mm_s3
-                    .is_none_or(|j| fd.j_max[i] <= j[i] + jerk_noise),
+                j_within: popts.jerk_mm_s3.is_none_or(|j| fd.j_max[i] <= j[i]),
             }
         })
         .collect();

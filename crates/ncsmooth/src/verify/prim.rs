@@ -76,6 +76,158 @@ impl PlanarArc {
     }
 }
 
+/// Angular slack (rad) of the sweep tests of [`PlanarArc::arc_piece_max`] and
+/// [`PlanarArc::segment_max`]: a foot this far past an end is at the end's distance up to
+/// `r (1e-12)^2`.
+const SWEEP_SLACK_RAD: f64 = 1e-12;
+
+/// Largest `|n_a x n_q|` for which two arcs' planes are treated as parallel; the tilt's
+/// effect, at most `r_a` times it, is added to the bound.
+const PARALLEL_TOL: f64 = 1e-9;
+
+impl PlanarArc {
+    /// In-plane coordinates of `p - center` and its height over the plane.
+    #[inline]
+    fn local(&self, p: Vec3) -> (f64, f64, f64) {
+        let q = p - self.arc.center;
+        (q.dot(self.arc.u), q.dot(self.arc.v), q.dot(self.normal))
+    }
+
+    /// True when the angles `[start, start + travel]` (rad, counter-clockwise about the
+    /// normal from `u`, `start` any value) lie in the sweep.
+    fn covers(&self, start: f64, travel: f64) -> bool {
+        if self.arc.sweep >= TAU {
+            return true;
+        }
+        let mut s = start.rem_euclid(TAU);
+        if s > TAU - SWEEP_SLACK_RAD {
+            s = 0.0;
+        }
+        s + travel <= self.arc.sweep + SWEEP_SLACK_RAD
+    }
+
+    /// Largest distance from the piece `[t0, t1]` of the planar arc `a` (at most a half
+    /// turn) to this arc, and the parameter of `a` where it is attained, when the nearest
+    /// points of the piece on this arc's circle all lie in its sweep (else `None`; also
+    /// when the planes are not parallel or this arc's centre is not inside `a`'s circle).
+    ///
+    /// With `e` the offset of `a`'s centre from this one's (in-plane part of length `E`,
+    /// height `z`) and `phi` the angle of the in-plane part in `a`'s frame, the point of
+    /// `a` at angle `theta` is `rho = sqrt(r_a^2 + E^2 + 2 r_a E cos(theta - phi))` from
+    /// this arc's axis. `rho` is monotone in `cos(theta - phi)`, so `|rho - r|` is largest
+    /// at an end of the range of that cosine over the piece (an end of the piece, or
+    /// `phi`, `phi + pi` inside it): the distance to the circle,
+    /// `sqrt((rho - r)^2 + z^2)`, has its exact maximum there. With `E < r_a` the angle of
+    /// the nearest point on the circle turns monotonically with `theta`, so the feet of the
+    /// piece are the angles between those of its ends, and where they are inside the
+    /// sweep the distance to the arc is the distance to the circle.
+    pub fn arc_piece_max(&self, a: &PlanarArc, t0: f64, t1: f64) -> Option<(f64, f64)> {
+        let (th0, th1) = (a.arc.sweep * t0, a.arc.sweep * t1);
+        if th1 - th0 > PI {
+            return None;
+        }
+        let tilt = a.normal.cross(self.normal).norm();
+        if tilt > PARALLEL_TOL {
+            return None;
+        }
+        let ra = a.arc.radius;
+        let e = a.arc.center - self.arc.center;
+        let z = e.dot(self.normal);
+        let ep = e - self.normal * z;
+        let big_e = ep.norm();
+        if big_e >= ra {
+            return None;
+        }
+        // Feet: the angles of the piece's ends in this frame, turning the way `a` does.
+        let (x0, y0, _) = self.local(a.arc.eval(t0));
+        let (x1, y1, _) = self.local(a.arc.eval(t1));
+        let (psi0, psi1) = (y0.atan2(x0), y1.atan2(x1));
+        let same = a.normal.dot(self.normal) > 0.0;
+        let (start, travel) = if same {
+            (psi0, (psi1 - psi0).rem_euclid(TAU))
+        } else {
+            (psi1, (psi0 - psi1).rem_euclid(TAU))
+        };
+        if !self.covers(start, travel) {
+            return None;
+        }
+        // Range of cos(theta - phi) over the piece, and where its ends are.
+        let phi = ep.dot(a.arc.v).atan2(ep.dot(a.arc.u));
+        let (c0, c1) = ((th0 - phi).cos(), (th1 - phi).cos());
+        let (mut cmax, mut tmax) = if c0 >= c1 { (c0, t0) } else { (c1, t1) };
+        let (mut cmin, mut tmin) = if c0 <= c1 { (c0, t0) } else { (c1, t1) };
+        // First angle >= th0 congruent to `at`.
+        let inside = |at: f64| {
+            let th = th0 + (at - th0).rem_euclid(TAU);
+            (th <= th1).then_some(th / a.arc.sweep)
+        };
+        if let Some(t) = inside(phi) {
+            (cmax, tmax) = (1.0, t);
+        }
+        if let Some(t) = inside(phi + PI) {
+            (cmin, tmin) = (-1.0, t);
+        }
+        let rho = |c: f64| {
+            (ra * ra + big_e * big_e + 2.0 * ra * big_e * c)
+                .max(0.0)
+                .sqrt()
+        };
+        let r = self.arc.radius;
+        let (hi, lo) = ((rho(cmax) - r).abs(), (rho(cmin) - r).abs());
+        let (m, t) = if hi >= lo { (hi, tmax) } else { (lo, tmin) };
+        Some(((m * m + z * z).sqrt() + ra * tilt, t))
+    }
+
+    /// Largest distance from the straight piece `p0 p1` to this arc, and the share of the
+    /// way from `p0` where its in-plane part is attained, when the nearest points on this
+    /// arc's circle all lie in its sweep (else `None`; also when the piece's projection
+    /// passes within a hair of the axis).
+    ///
+    /// The distance from the axis of the projection, `rho`, is convex along the piece, so
+    /// `|rho - r|` is largest at the piece's ends or where `rho` is least (the foot of the
+    /// axis on the projected piece); the height is linear, largest at an end. The bound
+    /// `sqrt(max |rho - r|^2 + max z^2)` is exact when the piece is parallel to the plane.
+    /// Away from the axis the angle of the projection turns monotonically, by less than a
+    /// half turn, so the feet are the angles between those of the ends.
+    pub fn segment_max(&self, p0: Vec3, p1: Vec3) -> Option<(f64, f64)> {
+        let (x0, y0, z0) = self.local(p0);
+        let (x1, y1, z1) = self.local(p1);
+        let (dx, dy) = (x1 - x0, y1 - y0);
+        let len_sq = dx * dx + dy * dy;
+        let tau = if len_sq > 0.0 {
+            (-(x0 * dx + y0 * dy) / len_sq).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (xm, ym) = (x0 + tau * dx, y0 + tau * dy);
+        let r = self.arc.radius;
+        let rho_min = (xm * xm + ym * ym).sqrt();
+        if rho_min <= 1e-9 * r {
+            return None;
+        }
+        let cross = x0 * y1 - y0 * x1;
+        let travel = cross.atan2(x0 * x1 + y0 * y1).abs();
+        let start = if cross >= 0.0 {
+            y0.atan2(x0)
+        } else {
+            y1.atan2(x1)
+        };
+        if !self.covers(start, travel) {
+            return None;
+        }
+        let (rho0, rho1) = ((x0 * x0 + y0 * y0).sqrt(), (x1 * x1 + y1 * y1).sqrt());
+        let (rho_max, at_max) = if rho0 >= rho1 {
+            (rho0, 0.0)
+        } else {
+            (rho1, 1.0)
+        };
+        let (hi, lo) = ((rho_max - r).abs(), (rho_min - r).abs());
+        let (m, at) = if hi >= lo { (hi, at_max) } else { (lo, tau) };
+        let zm = z0.abs().max(z1.abs());
+        Some(((m * m + zm * zm).sqrt(), at))
+    }
+}
+
 impl Prim {
     #[inline]
     pub fn dist_sq(&self, p: Vec3) -> f64 {
@@ -172,6 +324,113 @@ mod tests {
             let scale_sq = (p - center).norm_sq() + r * r;
             prop_assert!((fast - exact).abs() <= 1e-12 * scale_sq, "{fast} vs {exact}");
         }
+    }
+
+    /// A planar arc in the plane `z = h` (normal `+z` or `-z`), centre `c`, radius `r`,
+    /// from angle `a0` (about `+z` from `+x`) sweeping `sweep`.
+    fn flat_arc(c: (f64, f64), h: f64, r: f64, a0: f64, sweep: f64, ccw: bool) -> Option<Arc> {
+        let center = Vec3::new(c.0, c.1, h);
+        let at = |a: f64| center + Vec3::new(a.cos(), a.sin(), 0.0) * r;
+        let sgn = if ccw { 1.0 } else { -1.0 };
+        let turns = u32::from(sweep >= TAU);
+        Arc::from_center(at(a0), at(a0 + sgn * sweep), center, Vec3::Z, ccw, turns)
+    }
+
+    /// Exact distance from `p` to `q`.
+    fn dist(q: &PlanarArc, p: Vec3) -> f64 {
+        q.dist_sq(p).sqrt()
+    }
+
+    proptest! {
+        /// The closed-form maximum over an arc piece is at least the distance of every
+        /// point of the piece (500 samples), and it is the distance at the parameter
+        /// returned; near-concentric pairs (the rounded arcs of a written program) and
+        /// arbitrary ones.
+        #[test]
+        fn arc_piece_max_is_the_maximum(
+            rq in 0.1f64..60.0,
+            q0 in -4.0f64..4.0,
+            qsweep in prop_oneof![0.05f64..PI, PI..TAU, Just(TAU)],
+            qccw in any::<bool>(),
+            near in any::<bool>(),
+            off in (-1.0f64..1.0, -1.0f64..1.0),
+            dr in -1.0f64..1.0,
+            h in -0.01f64..0.01,
+            a0 in -4.0f64..4.0,
+            asweep in 0.01f64..TAU,
+            accw in any::<bool>(),
+            t0 in 0.0f64..1.0,
+            dt in 0.0f64..1.0,
+        ) {
+            let Some(q) = flat_arc((0.3, -0.2), 0.0, rq, q0, qsweep, qccw) else { return Ok(()) };
+            let scale = if near { 1e-3 } else { 0.5 * rq };
+            let ra = (rq + dr * scale).max(0.01);
+            let c = (0.3 + off.0 * scale, -0.2 + off.1 * scale);
+            let Some(a) = flat_arc(c, h, ra, a0, asweep, accw) else { return Ok(()) };
+            let (q, a) = (PlanarArc::new(&q), PlanarArc::new(&a));
+            let t1 = (t0 + dt).min(1.0);
+            let Some((b, t)) = q.arc_piece_max(&a, t0, t1) else { return Ok(()) };
+            prop_assert!(t >= t0 - 1e-12 && t <= t1 + 1e-12);
+            let tol = 1e-9 * (rq + ra);
+            prop_assert!((dist(&q, a.arc.eval(t)) - b).abs() <= tol, "{} vs {b}", dist(&q, a.arc.eval(t)));
+            for i in 0..=500 {
+                let s = t0 + (t1 - t0) * i as f64 / 500.0;
+                let d = dist(&q, a.arc.eval(s));
+                prop_assert!(d <= b + tol, "at {s}: {d} > {b}");
+            }
+        }
+
+        /// The same for straight pieces; exact when the piece is parallel to the plane.
+        #[test]
+        fn segment_max_bounds_and_is_attained(
+            rq in 0.1f64..60.0,
+            q0 in -4.0f64..4.0,
+            qsweep in prop_oneof![0.05f64..PI, PI..TAU, Just(TAU)],
+            qccw in any::<bool>(),
+            a in (-1.5f64..1.5, -1.5f64..1.5),
+            b in (-1.5f64..1.5, -1.5f64..1.5),
+            z in (-0.01f64..0.01, -0.01f64..0.01),
+            flat in any::<bool>(),
+        ) {
+            let Some(q) = flat_arc((0.0, 0.0), 0.0, rq, q0, qsweep, qccw) else { return Ok(()) };
+            let q = PlanarArc::new(&q);
+            let z1 = if flat { z.0 } else { z.1 };
+            let p0 = Vec3::new(a.0 * rq, a.1 * rq, z.0);
+            let p1 = Vec3::new(b.0 * rq, b.1 * rq, z1);
+            let Some((bound, at)) = q.segment_max(p0, p1) else { return Ok(()) };
+            let tol = 1e-9 * rq;
+            for i in 0..=500 {
+                let p = p0 + (p1 - p0) * (i as f64 / 500.0);
+                prop_assert!(dist(&q, p) <= bound + tol, "{} > {bound}", dist(&q, p));
+            }
+            if flat {
+                let d = dist(&q, p0 + (p1 - p0) * at);
+                prop_assert!((d - bound).abs() <= tol, "{d} vs {bound}");
+            }
+        }
+    }
+
+    #[test]
+    fn arc_piece_max_of_an_offset_circle() {
+        // Radius 10 about the origin against radius 10 about (0.001, 0): the distance to
+        // the circle is largest, 0.001, where the offset points along the radius (angle 0
+        // here); a piece around pi/2 has its maximum at an end.
+        let q = PlanarArc::new(&flat_arc((0.0, 0.0), 0.0, 10.0, -0.5, PI + 1.0, true).unwrap());
+        let a = PlanarArc::new(&flat_arc((0.001, 0.0), 0.0, 10.0, -0.25, 2.75, true).unwrap());
+        let (b, t) = q.arc_piece_max(&a, 0.0, 1.0).unwrap();
+        assert!((b - 0.001).abs() < 1e-12, "{b}");
+        assert!((t * 2.75 - 0.25).abs() < 1e-9, "{t}");
+        let quarter = (PI / 2.0 + 0.25) / 2.75;
+        let (b, t) = q.arc_piece_max(&a, quarter - 0.01, quarter + 0.01).unwrap();
+        assert!(b < 1e-4 && b > 0.0, "{b}");
+        assert!(t == quarter - 0.01 || t == quarter + 0.01, "{t}");
+        // More than half a turn, or past the programmed sweep: no closed form.
+        assert!(q.arc_piece_max(&a, 0.0, 1.0).is_some());
+        let long = PlanarArc::new(&flat_arc((0.001, 0.0), 0.0, 10.0, -0.25, 3.3, true).unwrap());
+        assert!(q.arc_piece_max(&long, 0.0, 1.0).is_none());
+        let past = PlanarArc::new(&flat_arc((0.0, 0.0), 0.0, 10.0, 3.0, 2.0, true).unwrap());
+        assert!(q.arc_piece_max(&past, 0.0, 1.0).is_none());
+        assert!(q.arc_piece_max(&past, 0.0, 0.1).is_some());
     }
 
     #[test]
