@@ -5,7 +5,7 @@ use crate::error::{ParseError, ParseErrorKind};
 
 impl Interp<'_> {
     /// Runs spline motion `code10` for this block.
-    pub(crate) fn spline(&mut self, code10: u16) -> Result<(), ParseError> {
+    pub(crate) fn spline(&mut self, code10: u16, _prev: u16) -> Result<(), ParseError> {
         Err(self.err_line(ParseErrorKind::Unsupported {
             word: super::block::code_name('G', u32::from(code10)),
             why: "splines are not supported yet",
