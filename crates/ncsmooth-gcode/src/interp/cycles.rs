@@ -635,6 +635,8 @@ impl Interp<'_> {
         }
         let get = |l: u8| by_letter[usize::from(l - b'I')];
         self.m.cycle.ijk = by_letter;
+        // A G5 without I J now takes these, not the last G5's P Q.
+        self.m.last_g5 = None;
         Ok(Some([get(pl.off[0]), get(pl.off[1]), get(pl.off[2])]))
     }
 

@@ -58,6 +58,11 @@ pub(crate) struct Modal {
     pub tlo: bool,
     /// What canned cycles (and G5) keep between blocks.
     pub cycle: super::cycles::CycleMemory,
+    /// The G5.2 NURBS being built (control points so far), if any.
+    pub nurbs: Option<super::splines::NurbsBuild>,
+    /// Index in the toolpath's blocks of the last G5 move, whose `P Q` a G5 without `I J`
+    /// reuses.
+    pub last_g5: Option<usize>,
     /// Returned value of the last subroutine (`#<_value>`), and whether there was one.
     pub value: f64,
     pub value_returned: bool,
@@ -84,6 +89,8 @@ impl Default for Modal {
             selected_tool: -1.0,
             tlo: false,
             cycle: Default::default(),
+            nurbs: None,
+            last_g5: None,
             value: 0.0,
             value_returned: false,
         }

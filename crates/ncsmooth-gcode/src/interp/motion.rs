@@ -99,9 +99,19 @@ impl Interp<'_> {
             // A motion that is not a cycle ends a run of cycles (LinuxCNC's cycle_il_flag).
             self.m.cycle.initial = None;
         }
+        if matches!(motion, 52 | 53) && (explicit.is_some() || any_axis) {
+            // NURBS blocks may have no axis word; they are pinned (see `splines`).
+            self.pin_next = false;
+            let r = self.spline(motion, prev);
+            if self.lb.block_delete {
+                self.pin_next = true;
+            }
+            return r;
+        }
+        self.drop_unfinished_nurbs(any_axis || explicit.is_some() || g80);
         let arc_words = self.has(b'I') || self.has(b'J') || self.has(b'K');
         if !any_axis {
-            if explicit.is_some() && is_cycle(motion) {
+            if explicit.is_some() && (is_cycle(motion) || matches!(motion, 50 | 51)) {
                 // LinuxCNC: "All axes missing with motion code".
                 return Err(self.err_line(ParseErrorKind::InvalidMotion {
                     code: super::block::code_name('G', u32::from(motion)),
@@ -140,7 +150,7 @@ impl Interp<'_> {
             MOTION_NONE => Err(self.err_line(ParseErrorKind::NoMotionMode)),
             0 | 10 => self.straight(motion == 0, g53),
             20 | 30 => self.arc(motion == 30),
-            50..=52 => self.spline(motion, prev),
+            50 | 51 => self.spline(motion, prev),
             730 | 740 | 810..=890 => self.cycle(motion, prev),
             _ => Err(self.err_line(ParseErrorKind::NoMotionMode)),
         };
