@@ -102,6 +102,16 @@ pub enum ParseErrorKind {
         /// Why it is invalid.
         why: &'static str,
     },
+    /// A canned-cycle or spline block LinuxCNC refuses: the retract plane below the bottom
+    /// of the hole, a missing word a cycle needs the first time, a spline outside the XY
+    /// plane, too few NURBS control points, ...
+    #[error("{code}: {why}")]
+    InvalidMotion {
+        /// The motion code (`G81`, `G5.2`).
+        code: String,
+        /// What is wrong.
+        why: String,
+    },
     /// Axis words with no motion mode in force (after `G80`).
     #[error("axis words without a motion mode (G80 is in force)")]
     NoMotionMode,

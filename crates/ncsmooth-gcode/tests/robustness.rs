@@ -116,8 +116,12 @@ proptest! {
     #[test]
     fn valid_looking_programs_never_panic(
         lines in proptest::collection::vec(
-            (proptest::sample::select(&["G0", "G1", "G2", "G3", "G18", "G19", "G17", "G91", "G90", "G20", ""][..]),
-             proptest::collection::vec((proptest::sample::select(&["X", "Y", "Z", "I", "J", "K", "R", "P", "F", "E"][..]), -1000i32..1000), 0..5)),
+            (proptest::sample::select(&[
+                "G0", "G1", "G2", "G3", "G18", "G19", "G17", "G91", "G90", "G20", "",
+                "G81", "G83", "G73", "G84 M3", "G86 M4", "G87 M3", "G98", "G99", "G80",
+                "G5", "G5.1", "G5.2", "G5.3",
+            ][..]),
+             proptest::collection::vec((proptest::sample::select(&["X", "Y", "Z", "I", "J", "K", "R", "P", "Q", "L", "F", "E"][..]), -1000i32..1000), 0..5)),
             0..30)
     ) {
         let mut s = String::new();
@@ -145,6 +149,10 @@ fn pathological_inputs() {
     check_bytes(b"G0 X1e308");
     check_bytes(b"G2 X1 I1e300 J1e300");
     check_bytes(b"G3 X0 I-1 P10000");
+    check_bytes(b"G0 X0 Y0 Z1\nG83 Z-999999999999 R0 Q0.000001 F1");
+    check_bytes(b"G0 X0 Y0 Z1\nG81 Z-1 R0 L99999999 F1");
+    check_bytes(b"G0 X0 Y0 Z1\nG91 G81 X999999999999 Z-1 R0 L99999 F1");
+    check_bytes(b"G0 X0 Y0\nG5.2 X999999999999 Y1 P0.000001 L10 F1\nX1 Y1 P999999999999\nG5.3");
     check_bytes(b"\xff\xfe\x00");
     check_bytes(b"(\xe2\x82");
     check_bytes(b"G0 X1\r");

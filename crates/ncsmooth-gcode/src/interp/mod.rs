@@ -358,8 +358,9 @@ impl<'a> Interp<'a> {
         }
     }
 
-    /// The block has only words a rewrite restores: motion codes G0-G3 and G5.x with their
-    /// axis, centre and spline words, plane, distance modes, G94, F and N.
+    /// The block has only words a rewrite restores: motion codes G0-G3, G5 and G5.1 with
+    /// their axis, centre and spline words, plane, distance modes, G94, F and N. (Canned
+    /// cycles and G5.2/G5.3 NURBS pin their lines themselves.)
     fn only_motion_words(&self) -> bool {
         let g_ok = self.gcodes.iter().all(|c| {
             matches!(

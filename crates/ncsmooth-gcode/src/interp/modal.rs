@@ -56,6 +56,13 @@ pub(crate) struct Modal {
     pub selected_tool: f64,
     /// A tool length offset is in force (G43...).
     pub tlo: bool,
+    /// What canned cycles (and G5) keep between blocks.
+    pub cycle: super::cycles::CycleMemory,
+    /// The G5.2 NURBS being built (control points so far), if any.
+    pub nurbs: Option<super::splines::NurbsBuild>,
+    /// Index in the toolpath's blocks of the last G5 move, whose `P Q` a G5 without `I J`
+    /// reuses.
+    pub last_g5: Option<usize>,
     /// Returned value of the last subroutine (`#<_value>`), and whether there was one.
     pub value: f64,
     pub value_returned: bool,
@@ -81,6 +88,9 @@ impl Default for Modal {
             tool: -1.0,
             selected_tool: -1.0,
             tlo: false,
+            cycle: Default::default(),
+            nurbs: None,
+            last_g5: None,
             value: 0.0,
             value_returned: false,
         }
@@ -137,7 +147,7 @@ impl Interp<'_> {
             let why: &'static str = match c.code10 {
                 0 | 10 | 20 | 30 | 40 | 50 | 51 | 52 | 53 | 70 | 80 | 100 | 170 | 180 | 190
                 | 200 | 210 | 280 | 281 | 300 | 301 | 400 | 430 | 431 | 432 | 490 | 520 | 530
-                | 540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 | 610 | 611 | 640 | 730
+                | 540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 | 610 | 611 | 640 | 730 | 740
                 | 800..=890 | 900 | 901 | 910 | 911 | 920..=923 | 940 | 960 | 970 | 980 | 990 => {
                     continue
                 }

@@ -32,6 +32,7 @@
 //! its start, or with no axis word at all, is a full circle.
 
 use super::block::{push_word, SLOT_AT, SLOT_CARET};
+use super::cycles::is_cycle;
 use super::frames::{bit, Axes, AXIS_LETTERS, N_AXES};
 use super::modal::MOTION_NONE;
 use super::{axes_vec, Interp, MM_PER_INCH};
@@ -72,11 +73,14 @@ pub(crate) struct Target {
 impl Interp<'_> {
     /// The motion of the block, after every other group.
     pub(crate) fn motion_block(&mut self) -> Result<(), ParseError> {
-        if self.gcode(|c| c == 800).is_some() {
+        let prev = self.m.motion;
+        let g80 = self.gcode(|c| c == 800).is_some();
+        if g80 {
             self.m.motion = MOTION_NONE;
             self.event(EventKind::Other, "G80".to_string());
         }
-        if let Some(c) = self.gcode(|c| super::block::g_modal_group(c) == Some(1)) {
+        let explicit = self.gcode(|c| super::block::g_modal_group(c) == Some(1));
+        if let Some(c) = explicit {
             self.m.motion = c.code10 as u16;
         }
         // G10, G28, G30, G52 and G92 use the axis words themselves.
@@ -91,8 +95,29 @@ impl Interp<'_> {
         let any_axis =
             AXIS_LETTERS.iter().any(|&l| self.has(l)) || self.has(b'@') || self.has(b'^') || e_axis;
         let motion = self.m.motion;
+        if (explicit.is_some() || g80 || any_axis) && !is_cycle(motion) {
+            // A motion that is not a cycle ends a run of cycles (LinuxCNC's cycle_il_flag).
+            self.m.cycle.initial = None;
+        }
+        if matches!(motion, 52 | 53) && (explicit.is_some() || any_axis) {
+            // NURBS blocks may have no axis word; they are pinned (see `splines`).
+            self.pin_next = false;
+            let r = self.spline(motion, prev);
+            if self.lb.block_delete {
+                self.pin_next = true;
+            }
+            return r;
+        }
+        self.drop_unfinished_nurbs(any_axis || explicit.is_some() || g80);
         let arc_words = self.has(b'I') || self.has(b'J') || self.has(b'K');
         if !any_axis {
+            if explicit.is_some() && (is_cycle(motion) || matches!(motion, 50 | 51)) {
+                // LinuxCNC: "All axes missing with motion code".
+                return Err(self.err_line(ParseErrorKind::InvalidMotion {
+                    code: super::block::code_name('G', u32::from(motion)),
+                    why: "all axes missing with a motion code".into(),
+                }));
+            }
             if matches!(motion, 20 | 30) && arc_words && !self.has(b'R') {
                 // A full circle with no axis word (LinuxCNC accepts it).
                 return self.arc(motion == 30);
@@ -125,8 +150,8 @@ impl Interp<'_> {
             MOTION_NONE => Err(self.err_line(ParseErrorKind::NoMotionMode)),
             0 | 10 => self.straight(motion == 0, g53),
             20 | 30 => self.arc(motion == 30),
-            50..=52 => self.spline(motion),
-            730 | 810..=890 => self.cycle(motion),
+            50 | 51 => self.spline(motion, prev),
+            730 | 740 | 810..=890 => self.cycle(motion, prev),
             _ => Err(self.err_line(ParseErrorKind::NoMotionMode)),
         };
         if self.lb.block_delete {
@@ -324,6 +349,16 @@ impl Interp<'_> {
             if let Some(e) = e {
                 self.e = e;
             }
+            // What LinuxCNC prints: its interpreter's idea of the target (the placeholders
+            // of unknown axes are that idea after a cycle it runs differently).
+            self.canon(|it| {
+                let end = it.canon_pos();
+                if rapid {
+                    Canon::Traverse { end }
+                } else {
+                    Canon::Feed { end }
+                }
+            });
             return Ok(());
         }
         if !xyz {
