@@ -52,7 +52,8 @@ pub mod flags {
     /// loop or conditional), no block delete, no comment, no parameter assignment, no
     /// event, and only motion, plane, distance-mode and feed words.
     pub const REPLACEABLE: u8 = 2;
-    /// It has axis words but no group-1 code: it relies on the motion mode in force.
+    /// It runs motion with no group-1 code of its own: it relies on the motion mode in
+    /// force (`X1 Y2` after `G1`, `I5 J0` after `G2`).
     pub const MODAL_MOTION: u8 = 4;
     /// It has a group-1 code (G0..G3, G5.x, a canned cycle, G80, ...).
     pub const EXPLICIT_MOTION: u8 = 8;

@@ -98,6 +98,9 @@ pub(crate) struct Interp<'a> {
     pub(crate) line_events: bool,
     /// The current line may not be replaced whatever its words (set by the handlers).
     pub(crate) line_pinned: bool,
+    /// The current line ran motion in the motion mode in force (no group-1 code of its
+    /// own): a writer resuming verbatim text before it must restore that mode.
+    pub(crate) line_modal_motion: bool,
 }
 
 /// Position of the first `\n`.
@@ -142,6 +145,7 @@ impl<'a> Interp<'a> {
             line_first_block: 0,
             line_events: false,
             line_pinned: false,
+            line_modal_motion: false,
         }
     }
 
@@ -248,9 +252,15 @@ impl<'a> Interp<'a> {
         compact_line(line, start, &mut self.lb).map_err(|e| self.lex_err(e))?;
         self.line_first_block = self.tp.blocks.len();
         self.line_events = false;
+        self.line_modal_motion = false;
         self.line_pinned = self.nested() || self.lb.block_delete;
         self.words.clear();
         self.assigns.clear();
+        // The block's sorted words too: a line without words must not see the last ones.
+        self.gcodes.clear();
+        self.mcodes.clear();
+        self.letters = [None; N_SLOTS];
+        self.used = 0;
         let first_time = !self.map.lines[self.pc].has(flags::EXECUTED);
         self.map.lines[self.pc].flags |= flags::EXECUTED;
         if first_time {
@@ -330,7 +340,6 @@ impl<'a> Interp<'a> {
     /// Records what the writer needs of the line just executed, and pins its moves when
     /// the line may not be replaced.
     fn finish_line(&mut self, first_time: bool) {
-        let axis_words = b"XYZABCUVWE@^".iter().any(|&l| self.has(l));
         let explicit_motion = self.gcode(|c| block::g_modal_group(c) == Some(1) || c == 800);
         let replaceable = first_time && !self.line_pinned && !self.line_events && {
             let lb = &self.lb;
@@ -338,7 +347,7 @@ impl<'a> Interp<'a> {
         };
         let state = self.write_state();
         let info = &mut self.map.lines[self.pc];
-        if axis_words && explicit_motion.is_none() {
+        if self.line_modal_motion {
             info.flags |= flags::MODAL_MOTION;
         }
         if explicit_motion.is_some() {

@@ -349,7 +349,9 @@ impl Interp<'_> {
     fn other_m(&mut self, printer_m: bool) -> Result<(), ParseError> {
         let dwell = self.gcode(|c| c == g::DWELL).is_some();
         let g64 = self.gcode(|c| c == 640).is_some();
-        let arc_motion = matches!(self.block_motion(), 20 | 30);
+        // An arc takes P (turns) and R only when the block runs one.
+        let arc_motion = matches!(self.block_motion(), 20 | 30)
+            && b"XYZABCUVWIJK@^".iter().any(|&l| self.has(l));
         let mut printer_taken = false;
         let mut standard_taken = false;
         let spindle_takes_s = !printer_m

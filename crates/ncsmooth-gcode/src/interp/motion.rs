@@ -100,6 +100,7 @@ impl Interp<'_> {
             self.m.cycle.initial = None;
         }
         if matches!(motion, 52 | 53) && (explicit.is_some() || any_axis) {
+            self.line_modal_motion = explicit.is_none();
             // NURBS blocks may have no axis word; they are pinned (see `splines`).
             self.pin_next = false;
             let r = self.spline(motion, prev);
@@ -120,6 +121,7 @@ impl Interp<'_> {
             }
             if matches!(motion, 20 | 30) && arc_words && !self.has(b'R') {
                 // A full circle with no axis word (LinuxCNC accepts it).
+                self.line_modal_motion = explicit.is_none();
                 return self.arc(motion == 30);
             }
             if matches!(motion, 20 | 30) && self.has(b'R') {
@@ -146,6 +148,7 @@ impl Interp<'_> {
             self.line_pinned = true;
             self.pin_next = false;
         }
+        self.line_modal_motion = explicit.is_none();
         let r = match motion {
             MOTION_NONE => Err(self.err_line(ParseErrorKind::NoMotionMode)),
             0 | 10 => self.straight(motion == 0, g53),
