@@ -348,7 +348,7 @@ pub(crate) fn read_block<P: ParamLookup>(
                     c.buf.len(),
                 ))
             }
-            b'A'..=b'Z' => {
+            b'A'..=b'Z' | b'@' | b'^' => {
                 if b == b'E' && looks_like_exponent(&c, start) {
                     return Err(c.error(
                         ParseErrorKind::Unsupported {
@@ -381,7 +381,7 @@ pub(crate) fn read_block<P: ParamLookup>(
         }
         // After a value, the next thing must start a word.
         match c.peek() {
-            None | Some(b'#' | b'A'..=b'Z') => {}
+            None | Some(b'#' | b'A'..=b'Z' | b'@' | b'^') => {}
             Some(b'.' | b'0'..=b'9') => {
                 let mut s = c.pos;
                 while s > start && (c.buf[s - 1].is_ascii_digit() || c.buf[s - 1] == b'.') {

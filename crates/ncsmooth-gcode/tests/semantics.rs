@@ -615,3 +615,20 @@ fn arc_radius_rule_is_linuxcncs() {
     assert!(arc("G20", 1.0, 0.0028).is_ok());
     assert!(arc("G20", 1.0, 0.0029).is_err());
 }
+
+/// LinuxCNC's polar words (`find_ends`): `@` radius and `^` angle (degrees) about the
+/// origin under G90; under G91 they change the current point's radius and angle about the
+/// origin.
+#[test]
+fn polar_words() {
+    let p = parse("G0 @10 ^90");
+    assert!(close(last(&p).end(), Vec3::new(0.0, 10.0, 0.0)));
+    let p = parse("G0 X10 Y0\nG1 ^90 F60");
+    assert!(close(last(&p).end(), Vec3::new(0.0, 10.0, 0.0)));
+    let p = parse("G0 X10 Y0\nG1 @5 F60");
+    assert!(close(last(&p).end(), Vec3::new(5.0, 0.0, 0.0)));
+    let p = parse("G0 X10 Y0\nG91 G1 @5 ^90 F60");
+    assert!(close(last(&p).end(), Vec3::new(0.0, 15.0, 0.0)));
+    assert!(err("G0 @10 X1").to_string().contains("polar"));
+    assert!(err("G0 X0 Y0\nG1 @5 F60").to_string().contains("angle"));
+}
