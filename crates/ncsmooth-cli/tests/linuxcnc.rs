@@ -1,0 +1,158 @@
+//! Round trip through LinuxCNC's own interpreter: shared programs smoothed by every method
+//! (and `none`) and compared with the original by `../shared/tools/canon_check.py`, which
+//! runs LinuxCNC's standalone interpreter `rs274` on both, with non-zero work offsets (so a
+//! program that assumes the machine starts at 0 shows up): the same non-motion events in
+//! order, the same rapids, no axis moved that the original never moves, and the feed path
+//! within tol (+ chord) both ways; for `none` within 1e-4 mm.
+//!
+//! Needs `rs274` (Debian package linuxcnc-uspace) and Python with numpy and scipy; `.ci/run`
+//! installs them. Without them the test prints why and passes. Ignored in debug builds:
+//! CI runs it in release (`cargo test --release -- --ignored`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Tolerance of the smoothing methods (mm).
+const TOL_MM: f64 = 0.01;
+/// What canon_check allows the methods: tol plus the default flattening chord (tol / 10).
+const CHECK_TOL_MM: f64 = TOL_MM * 1.1;
+/// What it allows `none`, which copies the program.
+const NONE_TOL_MM: f64 = 1e-4;
+
+/// The programs checked (the smaller shared ones: canon_check takes seconds per megabyte
+/// of dense path).
+const FILES: &[&str] = &[
+    "profiles/butterfly_1000.ngc",
+    "profiles/crown.ngc",
+    "profiles/hexagon3d.ngc",
+    "gcode/linuxcnc_Cereal.ngc",
+    "gcode/linuxcnc_51MeanderAve.ngc",
+    "gcode/linuxcnc_rgh.ngc",
+    "gcode/linuxcnc_blur_torus.ngc",
+    "gcode/camotics_tiny_cat_outline.ngc",
+    "more-gcode/linuxcnc_arcspiral.ngc",
+];
+
+const METHODS: &[&str] = &["none", "bspline", "arc", "nurbs", "trig"];
+
+fn shared() -> Option<PathBuf> {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared");
+    d.join("tools/canon_check.py").is_file().then_some(d)
+}
+
+/// Why the oracle cannot run here, if it cannot.
+fn missing_tools() -> Option<String> {
+    let ok = |c: &mut Command| c.output().is_ok_and(|o| o.status.success());
+    if !ok(Command::new("sh").args(["-c", "command -v rs274"])) {
+        return Some("rs274 not found (apt-get install linuxcnc-uspace)".into());
+    }
+    if !ok(Command::new("python3").args(["-c", "import numpy, scipy"])) {
+        return Some("python3 with numpy and scipy not found".into());
+    }
+    None
+}
+
+fn smooth(input: &Path, method: &str, out: &Path) -> Result<(), String> {
+    let o = Command::new(env!("CARGO_BIN_EXE_ncsmooth"))
+        .args(["smooth", input.to_str().unwrap(), "--method", method])
+        .args([
+            "--tol",
+            &TOL_MM.to_string(),
+            "-q",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .map_err(|e| e.to_string())?;
+    if o.status.success() {
+        Ok(())
+    } else {
+        Err(String::from_utf8_lossy(&o.stderr).into_owned())
+    }
+}
+
+/// canon_check's verdict: `Ok(summary)` or `Err(why)`.
+fn canon_check(tool: &Path, original: &Path, produced: &Path, tol: f64) -> Result<String, String> {
+    let o = Command::new("python3")
+        .arg(tool)
+        .args([original, produced])
+        .args(["--tol", &tol.to_string(), "--json"])
+        .output()
+        .map_err(|e| e.to_string())?;
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout)
+        .map_err(|e| format!("{e}: {}", String::from_utf8_lossy(&o.stderr)))?;
+    let summary = format!(
+        "dev {:.6} / {:.6} mm, events {}, rapids {}",
+        r["max_dev_mm"].as_f64().unwrap_or(f64::NAN),
+        r["max_vertex_miss_mm"].as_f64().unwrap_or(f64::NAN),
+        r["n_events"],
+        r["n_rapids"]
+    );
+    if r["ok"].as_bool() == Some(true) {
+        Ok(summary)
+    } else {
+        Err(format!("failed {}: {summary}", r["failed"]))
+    }
+}
+
+#[test]
+#[ignore = "runs LinuxCNC's interpreter on every method's output: release only (CI)"]
+fn shared_programs_round_trip_through_linuxcnc() {
+    let Some(shared) = shared() else {
+        println!("SKIP: ../shared (canon_check.py) not found");
+        return;
+    };
+    if let Some(why) = missing_tools() {
+        println!("SKIP (LOUD): LinuxCNC round trip not run: {why}");
+        eprintln!("SKIP (LOUD): LinuxCNC round trip not run: {why}");
+        return;
+    }
+    let tool = shared.join("tools/canon_check.py");
+    let dir = std::env::temp_dir().join(format!("ncsmooth-linuxcnc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let jobs: Vec<(&str, &str)> = FILES
+        .iter()
+        .flat_map(|f| METHODS.iter().map(move |m| (*f, *m)))
+        .collect();
+    // Two at a time: each job is one rs274 run per program and a Python comparison.
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(&(file, method)) = jobs.get(k) else {
+                    break;
+                };
+                let input = shared.join("data").join(file);
+                let name = file.replace('/', "_");
+                let out = dir.join(format!("{name}.{method}.ngc"));
+                let tol = if method == "none" {
+                    NONE_TOL_MM
+                } else {
+                    CHECK_TOL_MM
+                };
+                let t0 = std::time::Instant::now();
+                let r = smooth(&input, method, &out)
+                    .and_then(|()| canon_check(&tool, &input, &out, tol));
+                let line = format!(
+                    "{file} {method}: {:?} ({:.1} s)",
+                    r,
+                    t0.elapsed().as_secs_f64()
+                );
+                println!("{line}");
+                results.lock().unwrap().push((r.is_ok(), line));
+            });
+        }
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    let results = results.into_inner().unwrap();
+    let failed: Vec<&String> = results.iter().filter(|r| !r.0).map(|r| &r.1).collect();
+    assert_eq!(results.len(), jobs.len());
+    assert!(
+        failed.is_empty(),
+        "{} of {} failed:\n{failed:#?}",
+        failed.len(),
+        jobs.len()
+    );
+}
