@@ -33,6 +33,16 @@ pub struct InspectReport {
     pub moves_by_code: MovesByCode,
     /// Geometry statistics (mm, degrees).
     pub path: PathStats,
+    /// Motions ncsmooth cannot place in the work frame (G53, G28/G30, moves from a
+    /// position the program has not established): written as programmed, not planned.
+    pub untracked_motions: usize,
+    /// Line and reason of the first of them.
+    pub first_untracked: Option<String>,
+    /// X Y Z axes the program never establishes (never written by ncsmooth).
+    pub axes_never_known: Vec<char>,
+    /// Lines whose motion smoothing may replace (executed once at the top level, nothing
+    /// but motion words); every other line is written back verbatim.
+    pub replaceable_lines: usize,
     /// Parser warnings.
     pub warnings: Vec<String>,
 }
@@ -66,6 +76,26 @@ pub fn report(name: &str, p: &ncsmooth_gcode::Program) -> InspectReport {
             g3: s.g3,
         },
         path: PathStats::of(&p.toolpath),
+        untracked_motions: s.untracked,
+        first_untracked: s
+            .untracked_first
+            .as_ref()
+            .map(|(line, why)| format!("line {line}: {why}")),
+        axes_never_known: {
+            let known = p.source.lines.iter().fold(0u16, |m, l| m | l.state.known);
+            ['X', 'Y', 'Z']
+                .into_iter()
+                .enumerate()
+                .filter(|(i, _)| known & (1 << i) == 0)
+                .map(|(_, c)| c)
+                .collect()
+        },
+        replaceable_lines: p
+            .source
+            .lines
+            .iter()
+            .filter(|l| l.has(ncsmooth_gcode::source::flags::REPLACEABLE))
+            .count(),
         warnings: s.warnings.iter().map(|w| w.to_string()).collect(),
     }
 }
@@ -78,7 +108,7 @@ pub fn render_text(r: &InspectReport) -> String {
     let _ = writeln!(o, "{}: {} bytes, {} lines", r.file, r.bytes, r.lines);
     let _ = writeln!(
         o,
-        "units: {} (geometry below in mm)   planes: {}",
+        "units: {} (geometry below in mm; written back in the program's units)   planes: {}",
         r.units_seen.join(", "),
         r.planes_seen.join(", ")
     );
@@ -102,6 +132,26 @@ pub fn render_text(r: &InspectReport) -> String {
     let _ = writeln!(o, "corner angles (deg):");
     for b in &p.corner_angles {
         let _ = writeln!(o, "  [{:>6.2}, {:>6.2})  {}", b.from_deg, b.to_deg, b.count);
+    }
+    let _ = writeln!(
+        o,
+        "rewritable lines: {} of {} (the others are written back verbatim)",
+        r.replaceable_lines, r.lines
+    );
+    if r.untracked_motions > 0 {
+        let _ = writeln!(
+            o,
+            "untracked motions: {} (written as programmed, not planned; first: {})",
+            r.untracked_motions,
+            r.first_untracked.as_deref().unwrap_or("-")
+        );
+    }
+    if !r.axes_never_known.is_empty() {
+        let names: String = r.axes_never_known.iter().collect();
+        let _ = writeln!(
+            o,
+            "axes never established: {names} (never written; at 0 in geometry and setpoints)"
+        );
     }
     if let Some(b) = p.bbox {
         let _ = writeln!(

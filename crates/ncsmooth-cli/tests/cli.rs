@@ -1037,3 +1037,44 @@ fn smooth_never_writes_an_unknown_axis() {
         "Z written after G53:\n{text}"
     );
 }
+
+/// Every construct ncsmooth refuses exits 2 with file:line:column, names the construct,
+/// and writes nothing (issue 14).
+#[test]
+fn refused_constructs_name_themselves() {
+    let d = tmpdir("refused");
+    let out = d.join("out.ngc");
+    for (body, name) in [
+        ("G41 D1", "G41"),
+        ("G42.1 D2", "G42.1"),
+        ("G93", "G93"),
+        ("G95", "G95"),
+        ("G33 Z-1 K1", "G33"),
+        ("G38.2 Z-1 F10", "G38.2"),
+        ("G76 P1 Z-1 I1 J1 K1", "G76"),
+        ("G71 Q1", "G71"),
+        ("M98 P100", "M98"),
+        ("O<elsewhere> call", "elsewhere"),
+        ("G1 X5", "feed rate"),
+        ("G61 R0.5", "R word"),
+    ] {
+        let f = write(
+            &d,
+            "p.ngc",
+            format!("G21 G90 G0 X0 Y0 Z0\n{body}\nM2\n").as_bytes(),
+        );
+        let o = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            "bspline",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{body}: {err}");
+        assert!(err.contains("p.ngc:2:"), "{body}: no location in {err}");
+        assert!(err.contains(name), "{body}: {name} not named in {err}");
+        assert!(!out.exists(), "{body}: output written");
+    }
+}
