@@ -632,3 +632,24 @@ fn polar_words() {
     assert!(err("G0 @10 X1").to_string().contains("polar"));
     assert!(err("G0 X0 Y0\nG1 @5 F60").to_string().contains("angle"));
 }
+
+/// Words no code of the block uses: D H I J K L P Q R are errors, named in slot order
+/// (A..Z, @, ^) at their own word, as LinuxCNC refuses them.
+#[test]
+fn unused_words_are_errors() {
+    for (src, letter, col) in [
+        ("G0 X1 R2 D3", 'D', 10),
+        ("G0 X1 Q2", 'Q', 7),
+        ("G1 X1 L2 H1", 'H', 10),
+        ("G0 X1 P2 K1", 'K', 10),
+    ] {
+        let e = err(src);
+        assert!(
+            matches!(e.kind, ParseErrorKind::UnusedWord { letter: l } if l == letter),
+            "{src}: {e}"
+        );
+        assert!(e.to_string().contains(&format!(":1:{col}")), "{src}: {e}");
+    }
+    let p = parse("G0 X1 Y2\nG1 X2 F100\nG2 X3 Y3 I0.5 J0.5");
+    assert!(p.stats.warnings.is_empty(), "{:?}", p.stats.warnings);
+}

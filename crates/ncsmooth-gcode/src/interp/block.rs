@@ -13,6 +13,27 @@ const G_GROUPS: usize = 16;
 const M_GROUPS: usize = 4;
 /// Letter slots: `A`..`Z`, then `@` (polar radius) and `^` (polar angle).
 pub(crate) const N_SLOTS: usize = 28;
+
+/// Letters of the slots (slot `i` holds letter `SLOT_LETTERS[i]`).
+pub(crate) const SLOT_LETTERS: &[u8; N_SLOTS] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZ@^";
+
+/// The slot mask of `letters`.
+const fn slot_mask(letters: &[u8]) -> u32 {
+    let mut m = 0u32;
+    let mut i = 0;
+    while i < letters.len() {
+        m |= 1 << slot(letters[i]);
+        i += 1;
+    }
+    m
+}
+
+/// Slots of the words a motion line rewritten by the writer may carry: axes, centre and
+/// spline words (I J K R P Q), F and the polar words.
+pub(crate) const MOTION_LETTER_SLOTS: u32 = slot_mask(b"XYZABCUVWEIJKRPQF@^");
+
+/// Slots of words that are an error when no code of the block uses them (LinuxCNC).
+pub(crate) const MUST_USE_SLOTS: u32 = slot_mask(b"DHIJKLPQR");
 /// Slot of `@`.
 pub(crate) const SLOT_AT: usize = 26;
 /// Slot of `^`.
@@ -27,7 +48,7 @@ pub(crate) struct Code {
 
 /// The slot of a word letter.
 #[inline]
-pub(crate) fn slot(letter: u8) -> usize {
+pub(crate) const fn slot(letter: u8) -> usize {
     match letter {
         b'@' => SLOT_AT,
         b'^' => SLOT_CARET,
@@ -120,6 +141,7 @@ impl Interp<'_> {
         self.gcodes.clear();
         self.mcodes.clear();
         self.letters = [None; N_SLOTS];
+        self.present = 0;
         self.used = 0;
         for i in 0..self.words.len() {
             let w = self.words[i];
@@ -152,13 +174,14 @@ impl Interp<'_> {
                 }
                 b'N' => {}
                 l => {
-                    let slot = &mut self.letters[slot(l)];
-                    if slot.is_some() {
+                    let k = slot(l);
+                    if self.letters[k].is_some() {
                         return Err(
                             self.err_word(i, ParseErrorKind::DuplicateWord { letter: l as char })
                         );
                     }
-                    *slot = Some(i);
+                    self.letters[k] = Some(i);
+                    self.present |= 1 << k;
                 }
             }
         }

@@ -91,6 +91,9 @@ pub(crate) struct Interp<'a> {
     pub(crate) gcodes: Vec<Code>,
     pub(crate) mcodes: Vec<Code>,
     pub(crate) letters: [Option<usize>; N_SLOTS],
+    /// Bit `i` set when slot `i` of `letters` holds a word.
+    pub(crate) present: u32,
+    /// Bit `i` set when the word of slot `i` was read.
     pub(crate) used: u32,
     /// Index in `tp.blocks` where the current line's output starts.
     pub(crate) line_first_block: usize,
@@ -141,6 +144,7 @@ impl<'a> Interp<'a> {
             gcodes: Vec::with_capacity(8),
             mcodes: Vec::with_capacity(4),
             letters: [None; N_SLOTS],
+            present: 0,
             used: 0,
             line_first_block: 0,
             line_events: false,
@@ -260,6 +264,7 @@ impl<'a> Interp<'a> {
         self.gcodes.clear();
         self.mcodes.clear();
         self.letters = [None; N_SLOTS];
+        self.present = 0;
         self.used = 0;
         let first_time = !self.map.lines[self.pc].has(flags::EXECUTED);
         self.map.lines[self.pc].flags |= flags::EXECUTED;
@@ -377,30 +382,7 @@ impl<'a> Interp<'a> {
                 0 | 10 | 20 | 30 | 50 | 51 | 170 | 180 | 190 | 900 | 910 | 901 | 911 | 940
             )
         });
-        let letters_ok = self.letters.iter().enumerate().all(|(i, s)| {
-            s.is_none()
-                || matches!(
-                    b"ABCDEFGHIJKLMNOPQRSTUVWXYZ@^"[i],
-                    b'X' | b'Y'
-                        | b'Z'
-                        | b'A'
-                        | b'B'
-                        | b'C'
-                        | b'U'
-                        | b'V'
-                        | b'W'
-                        | b'E'
-                        | b'I'
-                        | b'J'
-                        | b'K'
-                        | b'R'
-                        | b'P'
-                        | b'Q'
-                        | b'F'
-                        | b'@'
-                        | b'^'
-                )
-        });
+        let letters_ok = self.present & !block::MOTION_LETTER_SLOTS == 0;
         g_ok && self.mcodes.is_empty() && letters_ok
     }
 

@@ -810,23 +810,25 @@ impl Interp<'_> {
                 },
             ));
         }
+        let unused_slots = self.present & !self.used;
+        if unused_slots == 0 {
+            return Ok(());
+        }
         let mut unused = String::new();
-        for (i, slot) in self.letters.iter().enumerate() {
-            if let Some(w) = *slot {
-                if self.used & (1 << i) != 0 {
-                    continue;
-                }
-                let letter = b"ABCDEFGHIJKLMNOPQRSTUVWXYZ@^"[i];
-                if b"DHIJKLPQR".contains(&letter) {
-                    return Err(self.err_word(
-                        w,
-                        ParseErrorKind::UnusedWord {
-                            letter: letter as char,
-                        },
-                    ));
-                }
-                unused.push(letter as char);
+        for (i, &letter) in super::block::SLOT_LETTERS.iter().enumerate() {
+            if unused_slots & (1 << i) == 0 {
+                continue;
             }
+            let w = self.letters[i].unwrap_or(0);
+            if super::block::MUST_USE_SLOTS & (1 << i) != 0 {
+                return Err(self.err_word(
+                    w,
+                    ParseErrorKind::UnusedWord {
+                        letter: letter as char,
+                    },
+                ));
+            }
+            unused.push(letter as char);
         }
         if !unused.is_empty() {
             self.warn(format!("word(s) {unused} unused in this block, ignored"));
