@@ -240,3 +240,25 @@ proptest! {
         }
     }
 }
+
+/// A subroutine defined after the main program runs lines after its caller's: the moves
+/// of the main program after the call are still smoothed into their own lines (they used
+/// to be counted as the subroutine's, whose pinned lines then looked changed: the rewrite
+/// failed).
+#[test]
+fn subroutines_after_the_main_program_keep_their_lines() {
+    let src = "G0 X0 Y0 Z0 F100\nG1 X1\nG1 X2 Y1\nO1 call\nG1 X3\nG1 X4 Y2\nG1 X5\n\
+               O1 call\nG1 X6 Y3\nM2\nO1 sub\nG1 Y9\nG1 X0\nO1 endsub\n";
+    let p = parse(src).unwrap();
+    let opts = RewriteOptions::new(6, 1e-4);
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &halves(&p.toolpath), &opts).unwrap())
+        .unwrap();
+    assert!(
+        text.ends_with("M2\nO1 sub\nG1 Y9\nG1 X0\nO1 endsub\n"),
+        "{text}"
+    );
+    let q = parse(&text).unwrap();
+    let dev = ncsmooth::verify::deviation(&q.toolpath, &p.toolpath, 1e-8);
+    assert!(dev.output_to_programmed_mm <= 1e-5 && dev.vertex_to_output_mm <= 1e-5);
+    assert!(q.toolpath.moves().count() > p.toolpath.moves().count());
+}
