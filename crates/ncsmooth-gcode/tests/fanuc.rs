@@ -164,6 +164,9 @@ fn fanuc_errors_are_linuxcncs() {
         // M98 only as the first word (after N): elsewhere LinuxCNC knows no such M code.
         ("(c) M98 P1\nM2\nO1\nM99\n", 1, "M98"),
         ("G0 X1 M98 P1\nM2\nO1\nM99\n", 1, "M98"),
+        // Only the three characters M98 (LinuxCNC reads them and goes on after them).
+        ("M98.0 P1\nM2\nO1\nM99\n", 1, "M98"),
+        ("M098 P1\nM2\nO1\nM99\n", 1, "M98"),
         // Nothing but a comment after a returning M99.
         ("M98 P1\nM2\nO1\nM99 G0 X5\n", 4, "M99"),
         ("M98 P1\nM2\nO1\nG0 X1 M99\n", 4, "M99"),

@@ -48,34 +48,29 @@ pub(crate) enum Statement {
     Return,
 }
 
-/// The M code of an `M98` call.
-const M98: i64 = 98;
-/// The M code of an `M99` return.
-const M99: i64 = 99;
-
 impl Interp<'_> {
     /// The Fanuc-style statement of the current line, whose compacted text has an `M` at
-    /// `at` (just after any `N` number): `M98`, or `M99` inside a call. `None` for any
-    /// other line, including one where a comment comes before the `M` (LinuxCNC then reads
-    /// it as an ordinary M code).
-    pub(crate) fn fanuc_statement_at(&mut self, at: usize) -> Option<Statement> {
-        let code = self
-            .value_at(at + 1, Some(b'M'))
-            .0
-            .ok()
-            .and_then(linuxcnc_integer);
+    /// `at` (just after any `N` number): `M98`, or `M99` inside a call, written so (LinuxCNC
+    /// reads the three characters `m98` / `m99` there; `M098` or `M98.0` are then errors).
+    /// `None` for any other line, including one where a comment comes before the `M`
+    /// (LinuxCNC then reads it as an ordinary M code, an error for both).
+    pub(crate) fn fanuc_statement_at(&self, at: usize) -> Option<Statement> {
+        let b = &self.lb.bytes[at..];
+        let statement = match b.get(..3) {
+            Some(b"M98") => Statement::Call,
+            Some(b"M99") if !self.flow.calls.is_empty() => Statement::Return,
+            _ => return None,
+        };
+        if b.get(3).is_some_and(|c| c.is_ascii_digit() || *c == b'.') {
+            return None;
+        }
         let line_start = self.lines[self.pc].0;
         let comment_first = self
             .lb
             .map
             .get(at)
             .is_some_and(|&m| self.src.as_bytes()[line_start..m].contains(&b'('));
-        match code {
-            _ if comment_first => None,
-            Some(M98) => Some(Statement::Call),
-            Some(M99) if !self.flow.calls.is_empty() => Some(Statement::Return),
-            _ => None,
-        }
+        (!comment_first).then_some(statement)
     }
 
     /// Executes the Fanuc-style statement `s` of the current line (`M` at `at`).
