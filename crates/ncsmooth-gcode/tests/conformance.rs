@@ -464,7 +464,8 @@ fn run_program(
         return Err("accepted a program LinuxCNC refuses".into());
     }
     if let Outcome::RunsDespite(why) = outcome {
-        println!("  runs, refused by LinuxCNC: {prog}: {why}");
+        let test = dir.file_name().unwrap_or_default().to_string_lossy();
+        println!("  runs, refused by LinuxCNC: {test}/{prog}: {why}");
     }
     let mut want = expected_cmds(run);
     let mut got = our_cmds(&p.canon, how.awk);

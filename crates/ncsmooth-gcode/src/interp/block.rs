@@ -116,6 +116,9 @@ fn m_modal_group(code10: u32) -> Option<usize> {
 
 impl Interp<'_> {
     /// Sorts the words of the block into codes and letter slots.
+    // Inlined into `block` on the hot path (a second caller, `M98`, made LLVM call it:
+    // +1.9 % instructions parsing stellabee1).
+    #[inline(always)]
     pub(crate) fn classify(&mut self) -> Result<(), ParseError> {
         self.gcodes.clear();
         self.mcodes.clear();
