@@ -3,7 +3,9 @@
 //! runs LinuxCNC's standalone interpreter `rs274` on both, with non-zero work offsets (so a
 //! program that assumes the machine starts at 0 shows up): the same non-motion events in
 //! order, the same rapids, no axis moved that the original never moves, and the feed path
-//! within tol (+ chord) both ways; for `none` within 1e-4 mm.
+//! within tol (+ chord) both ways; for `none` within 1e-4 mm. Besides the shared files, a
+//! generated Fanuc-style program (`M98 P L` subprograms after `M30`, nested, incremental)
+//! whose main program is smoothed and whose subprograms must stay as they are.
 //!
 //! Needs `rs274` (Debian package linuxcnc-uspace) and Python with numpy and scipy; `.ci/run`
 //! installs them. Without them the test prints why and passes. Ignored in debug builds:
@@ -31,7 +33,27 @@ const FILES: &[&str] = &[
     "gcode/linuxcnc_blur_torus.ngc",
     "gcode/camotics_tiny_cat_outline.ngc",
     "more-gcode/linuxcnc_arcspiral.ngc",
+    "linuxcnc-interp-tests/m98m99/01-basics/test.ngc",
 ];
+
+/// A Fanuc-style program: micro-line waves in the main program around a subprogram called
+/// twice with `L2`, which steps down incrementally and calls a nested one cutting an arc
+/// and lines.
+fn fanuc_program() -> String {
+    let mut s = String::from("%\nO0100 (FANUC)\nG21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-1 F900\n");
+    let wave = |s: &mut String, y0: f64| {
+        for k in 1..=80 {
+            let x = f64::from(k) * 0.5;
+            *s += &format!("G1 X{x:.3} Y{:.4}\n", y0 + 3.0 * (x / 4.0).sin());
+        }
+    };
+    wave(&mut s, 0.0);
+    s += "G0 Z5\nG0 X50 Y0\nG1 Z0 F600\nM98 P200 L2\nG0 Z5\nG0 X0 Y20\nG1 Z-1 F900\n";
+    wave(&mut s, 20.0);
+    s += "G0 Z5\nM30\nO200 (STEP)\nG91 G1 Z-0.5\nG90\nM98 P300\nM99\n";
+    s += "O300 (POCKET)\nG1 X60 Y0\nG3 X60 Y10 I0 J5\nG1 X50 Y10\nG1 X50 Y0\nM99\n%\n";
+    s
+}
 
 const METHODS: &[&str] = &["none", "bspline", "arc", "nurbs", "trig"];
 
@@ -110,9 +132,16 @@ fn shared_programs_round_trip_through_linuxcnc() {
     let tool = shared.join("tools/canon_check.py");
     let dir = std::env::temp_dir().join(format!("ncsmooth-linuxcnc-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let jobs: Vec<(&str, &str)> = FILES
+    let fanuc = dir.join("fanuc.ngc");
+    std::fs::write(&fanuc, fanuc_program()).unwrap();
+    let inputs: Vec<(String, PathBuf)> = FILES
         .iter()
-        .flat_map(|f| METHODS.iter().map(move |m| (*f, *m)))
+        .map(|f| (f.to_string(), shared.join("data").join(f)))
+        .chain([("fanuc.ngc (generated)".to_string(), fanuc.clone())])
+        .collect();
+    let jobs: Vec<(&str, &Path, &str)> = inputs
+        .iter()
+        .flat_map(|(f, p)| METHODS.iter().map(move |m| (f.as_str(), p.as_path(), *m)))
         .collect();
     // Two at a time: each job is one rs274 run per program and a Python comparison.
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -121,11 +150,10 @@ fn shared_programs_round_trip_through_linuxcnc() {
         for _ in 0..2 {
             s.spawn(|| loop {
                 let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(&(file, method)) = jobs.get(k) else {
+                let Some(&(file, input, method)) = jobs.get(k) else {
                     break;
                 };
-                let input = shared.join("data").join(file);
-                let name = file.replace('/', "_");
+                let name = file.replace(['/', ' '], "_");
                 let out = dir.join(format!("{name}.{method}.ngc"));
                 let tol = if method == "none" {
                     NONE_TOL_MM
@@ -133,8 +161,8 @@ fn shared_programs_round_trip_through_linuxcnc() {
                     CHECK_TOL_MM
                 };
                 let t0 = std::time::Instant::now();
-                let r = smooth(&input, method, &out)
-                    .and_then(|()| canon_check(&tool, &input, &out, tol));
+                let r =
+                    smooth(input, method, &out).and_then(|()| canon_check(&tool, input, &out, tol));
                 let line = format!(
                     "{file} {method}: {:?} ({:.1} s)",
                     r,

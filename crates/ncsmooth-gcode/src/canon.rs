@@ -38,6 +38,8 @@ pub enum Canon {
     Comment(String),
     /// `MESSAGE("text")`.
     Message(String),
+    /// The text of a `(PRINT,...)` comment, which `rs274` prints on its own line.
+    Print(String),
     /// `DWELL(seconds)`.
     Dwell(f64),
     /// `PROGRAM_END()`.

@@ -117,25 +117,41 @@ pub enum RewriteError {
     },
 }
 
-/// The moves of each line: `(first, end)` index ranges into a move list, per line.
-fn moves_by_line(moves: &[&Move], n_lines: usize) -> Result<Vec<(usize, usize)>, RewriteError> {
-    let mut ranges = vec![(0usize, 0usize); n_lines];
+/// The moves of each line: `moves` grouped by line (in their order within a line), and
+/// the `(first, end)` index range of each line's group.
+type ByLine<'a> = (Vec<&'a Move>, Vec<(usize, usize)>);
+
+/// Groups `moves` by line (see [`ByLine`]).
+fn moves_by_line<'a>(moves: &[&'a Move], n_lines: usize) -> Result<ByLine<'a>, RewriteError> {
+    let mut line_of = Vec::with_capacity(moves.len());
     let mut last = 0usize;
-    for (k, m) in moves.iter().enumerate() {
+    for m in moves {
         let l = (m.line as usize).saturating_sub(1);
         if l >= n_lines {
             return Err(RewriteError::BadLine { line: m.line });
         }
-        // Tags may not go backwards within the output: a move belongs to the latest line.
-        let l = l.max(last);
-        last = l;
-        if ranges[l].1 == 0 && ranges[l].0 == 0 {
-            ranges[l] = (k, k + 1);
+        // Tags of smoothed moves may not go backwards: such a move belongs to the latest
+        // line. Pinned moves keep their line: a subroutine runs lines before or after its
+        // caller's, and may run them more than once.
+        let l = if m.pinned { l } else { l.max(last) };
+        if !m.pinned {
+            last = l;
+        }
+        line_of.push(l);
+    }
+    let mut order: Vec<usize> = (0..moves.len()).collect();
+    order.sort_by_key(|&k| line_of[k]);
+    let grouped: Vec<&Move> = order.iter().map(|&k| moves[k]).collect();
+    let mut ranges = vec![(0usize, 0usize); n_lines];
+    for (k, &o) in order.iter().enumerate() {
+        let r = &mut ranges[line_of[o]];
+        if r.1 == 0 {
+            *r = (k, k + 1);
         } else {
-            ranges[l].1 = k + 1;
+            r.1 = k + 1;
         }
     }
-    Ok(ranges)
+    Ok((grouped, ranges))
 }
 
 fn same_moves(a: &[&Move], b: &[&Move]) -> bool {
@@ -203,8 +219,8 @@ pub fn rewrite(
     let lines = &program.source.lines;
     let orig: Vec<&Move> = program.toolpath.moves().collect();
     let out: Vec<&Move> = output.moves().collect();
-    let orig_by = moves_by_line(&orig, lines.len())?;
-    let out_by = moves_by_line(&out, lines.len())?;
+    let (orig, orig_by) = moves_by_line(&orig, lines.len())?;
+    let (out, out_by) = moves_by_line(&out, lines.len())?;
     let eol = if src.windows(2).any(|w| w == b"\r\n") {
         "\r\n"
     } else {

@@ -1,7 +1,8 @@
 //! Property tests of the writer that keeps the program's text ([`ncsmooth_gcode::rewrite`]):
 //! random programs mixing frames (G54/G55, G92, G53, G28), units, distance modes,
-//! comments, M codes with their words, block delete, dwells, parameters and O-word
-//! conditionals, with axes the program never commands, survive parse -> rewrite -> parse:
+//! comments, M codes with their words, block delete, dwells, parameters, O-word
+//! conditionals and Fanuc-style subprogram calls (`M98 P L`, nested, after `M2`), with
+//! axes the program never commands, survive parse -> rewrite -> parse:
 //!
 //! * unchanged motion gives the program back byte for byte;
 //! * with every replaceable line rewritten (each move cut in two halves), the program
@@ -9,7 +10,8 @@
 //!   motions, the same path (within the flattening of arcs and the rounding of 6
 //!   decimals), and no word for an axis the program never commands. Arcs are rewritten as
 //!   lines, so the motion mode after a rewritten run differs from the program's and the
-//!   next line that relies on it must get it back.
+//!   next line that relies on it must get it back;
+//! * the moves a subprogram runs are pinned, and its lines come back byte for byte.
 
 use ncsmooth::geom::{Flatten, Line, ParamCurve, Segment};
 use ncsmooth::path::{Block, Toolpath};
@@ -39,6 +41,11 @@ enum Op {
     Units(bool),
     Distance(bool),
     Feed(u32),
+    /// `M98 P<SUBS[k]> [L<repeat>]`.
+    Call {
+        k: usize,
+        repeat: u8,
+    },
 }
 
 const TEXTS: &[&str] = &[
@@ -57,6 +64,19 @@ const TEXTS: &[&str] = &[
     "#<depth> = 1.5",
     "O100 if [1 GT 0]\n(in the branch)\nO100 endif",
     "M1",
+];
+
+/// Fanuc-style subprograms written after `M2` (in this order: `O101` calls `O100`, which
+/// LinuxCNC finds only after it), the program number, and the distance mode they leave
+/// (`None`: the caller's). Each ends with a G0/G1 motion in force.
+const SUBS: &[(&str, u32, Option<bool>)] = &[
+    (
+        "O101 (a subprogram)\nM98 P100\nG1 X-1 Y1 F300\nM99\n",
+        101,
+        None,
+    ),
+    ("O102\nG91 G1 X1 Y0.5\nG90\nM99\n", 102, Some(true)),
+    ("O0100\nG1 X1.5 Y-2\nG0 X3 Y4\nM99\n", 100, None),
 ];
 
 const FRAMES: &[&str] = &[
@@ -82,6 +102,7 @@ fn op() -> impl Strategy<Value = Op> {
         1 => any::<bool>().prop_map(Op::Units),
         1 => any::<bool>().prop_map(Op::Distance),
         1 => (1u32..5000).prop_map(Op::Feed),
+        1 => (0..SUBS.len(), 0u8..4).prop_map(|(k, repeat)| Op::Call { k, repeat }),
     ]
 }
 
@@ -146,10 +167,35 @@ fn program(ops: &[Op], no_z: bool) -> String {
                 s += if *abs { "G90\n" } else { "G91\n" }
             }
             Op::Feed(f) => s += &format!("F{f}\n"),
+            Op::Call { k, repeat } => {
+                let (_, n, mode) = SUBS[*k];
+                s += &match repeat {
+                    1 => format!("M98 P{n}\n"),
+                    r => format!("M98 P{n} L{r}\n"),
+                };
+                if *repeat > 0 {
+                    absolute = mode.unwrap_or(absolute);
+                    last_motion_is_line = true;
+                }
+            }
         }
     }
-    s += "M2\nG0 X999 (after the end: never run)\n";
+    s += "M2\n";
+    s += MAIN_END;
+    s.push('\n');
+    for (sub, _, _) in SUBS {
+        s += sub;
+    }
     s
+}
+
+/// The last line of the main program text: the subprograms follow it.
+const MAIN_END: &str = "G0 X999 (after the end: never run)";
+
+/// The lines of the subprograms, and the 1-based number of the first.
+fn subprogram_lines(src: &str) -> (Vec<&str>, u32) {
+    let at = src.lines().position(|l| l == MAIN_END).unwrap_or(0);
+    (src.lines().skip(at + 1).collect(), at as u32 + 2)
 }
 
 fn parse(src: &str) -> Result<Program, String> {
@@ -226,6 +272,12 @@ proptest! {
         };
         prop_assert_eq!(ev(&p.toolpath), ev(&q.toolpath), "{}\n---\n{}", src, text);
         prop_assert_eq!(p.stats.untracked, q.stats.untracked);
+        let (subs, first_sub_line) = subprogram_lines(&src);
+        prop_assert!(
+            p.toolpath.moves().filter(|m| m.line >= first_sub_line).all(|m| m.pinned),
+            "a subprogram move is not pinned\n{}", src
+        );
+        prop_assert_eq!(subs, subprogram_lines(&text).0);
         let dev = ncsmooth::verify::deviation(&q.toolpath, &p.toolpath, 1e-8);
         prop_assert!(
             dev.output_to_programmed_mm <= 1e-4 + 1e-5 && dev.vertex_to_output_mm <= 1e-5,
@@ -239,4 +291,26 @@ proptest! {
             prop_assert!(!code.contains('Z'), "Z invented:\n{}", text);
         }
     }
+}
+
+/// A subroutine defined after the main program runs lines after its caller's: the moves
+/// of the main program after the call are still smoothed into their own lines (they used
+/// to be counted as the subroutine's, whose pinned lines then looked changed: the rewrite
+/// failed).
+#[test]
+fn subroutines_after_the_main_program_keep_their_lines() {
+    let src = "G0 X0 Y0 Z0 F100\nG1 X1\nG1 X2 Y1\nO1 call\nG1 X3\nG1 X4 Y2\nG1 X5\n\
+               O1 call\nG1 X6 Y3\nM2\nO1 sub\nG1 Y9\nG1 X0\nO1 endsub\n";
+    let p = parse(src).unwrap();
+    let opts = RewriteOptions::new(6, 1e-4);
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &halves(&p.toolpath), &opts).unwrap())
+        .unwrap();
+    assert!(
+        text.ends_with("M2\nO1 sub\nG1 Y9\nG1 X0\nO1 endsub\n"),
+        "{text}"
+    );
+    let q = parse(&text).unwrap();
+    let dev = ncsmooth::verify::deviation(&q.toolpath, &p.toolpath, 1e-8);
+    assert!(dev.output_to_programmed_mm <= 1e-5 && dev.vertex_to_output_mm <= 1e-5);
+    assert!(q.toolpath.moves().count() > p.toolpath.moves().count());
 }

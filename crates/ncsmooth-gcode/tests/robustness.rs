@@ -91,6 +91,18 @@ const TOKENS: &[&str] = &[
     "$",
     "#<a>",
     "O1",
+    "O2",
+    "O[1+1]",
+    " sub",
+    " endsub",
+    " call",
+    " return",
+    "M98",
+    "M99",
+    "P1",
+    "P2",
+    "L2",
+    "L0",
 ];
 
 proptest! {
@@ -134,6 +146,21 @@ proptest! {
         }
         check_bytes(s.as_bytes());
     }
+
+    #[test]
+    fn fanuc_style_programs_never_panic(
+        lines in proptest::collection::vec(
+            proptest::sample::select(&[
+                "M98 P1", "M98 P2 L3", "M98 P1 L0", "M98", "M98 P[1+1] L2", "N5 M98 P2",
+                "M99", "O1", "O2", "O0001", "O<two>", "O1 sub", "O1 endsub", "O1 call",
+                "O2 return", "M2", "M30", "%", "G0 X1 Y2 Z3", "G91 G1 X1 F100", "G90",
+                "#1 = [#1 + 1]", "(PRINT,#1)", "/M98 P1", "G1 X2 M99",
+            ][..]),
+            0..40)
+    ) {
+        let s = lines.join("\n");
+        check_bytes(s.as_bytes());
+    }
 }
 
 #[test]
@@ -153,9 +180,37 @@ fn pathological_inputs() {
     check_bytes(b"G0 X0 Y0 Z1\nG81 Z-1 R0 L99999999 F1");
     check_bytes(b"G0 X0 Y0 Z1\nG91 G81 X999999999999 Z-1 R0 L99999 F1");
     check_bytes(b"G0 X0 Y0\nG5.2 X999999999999 Y1 P0.000001 L10 F1\nX1 Y1 P999999999999\nG5.3");
+    check_bytes(b"M98 P1\nM2\nO1\nM98 P1 L2\nM99\n");
     check_bytes(b"\xff\xfe\x00");
     check_bytes(b"(\xe2\x82");
     check_bytes(b"G0 X1\r");
     check_bytes(b"");
     check_bytes(b"\n\n\n");
+}
+
+/// Subprograms that each call the next twice would make 2^60 calls: the count of calls and
+/// loop iterations ends them with an error (10 million of them take seconds in release).
+#[test]
+#[ignore = "ten million subroutine calls: release only (CI)"]
+fn call_trees_that_never_end_are_errors() {
+    for (call, ret, sub) in [("M98 P", "M99", ""), ("O", "O{k} endsub", " sub")] {
+        let mut s = if call == "O" {
+            String::from("O1 call\nM2\n")
+        } else {
+            String::from("M98 P1\nM2\n")
+        };
+        for k in 1..60 {
+            let n = k + 1;
+            let c = if call == "O" {
+                format!("O{n} call")
+            } else {
+                format!("M98 P{n}")
+            };
+            let r = ret.replace("{k}", &k.to_string());
+            s += &format!("O{k}{sub}\n{c}\n{c}\n{r}\n");
+        }
+        s += &format!("O60{sub}\n{}\n", ret.replace("{k}", "60"));
+        let e = parse_bytes(s.as_bytes(), "tree", &ParseOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("does not end"), "{e}");
+    }
 }

@@ -477,7 +477,7 @@ fn located_errors() {
         ("G38.2 Z-1", "G38.2"),
         ("G76 P1 Z-1 I1 J1 K1", "G76"),
         ("G71 Q1", "G71"),
-        ("M98 P100", "M98"),
+        ("G0 X1 M98 P100", "M98"),
     ] {
         match err(src).kind {
             ParseErrorKind::Unsupported { word: w, .. } => assert_eq!(w, word, "{src}"),

@@ -123,11 +123,11 @@ pub(crate) fn g_modal_group(code10: u32) -> Option<usize> {
     })
 }
 
-/// LinuxCNC's modal group of an M code (tenths): stops (M0 M1 M2 M30 M60), tool change
+/// LinuxCNC's modal group of an M code (tenths): stops (M0 M1 M2 M30 M60 M99), tool change
 /// (M6), spindle (M3 M4 M5), coolant (M7 M8 M9).
 fn m_modal_group(code10: u32) -> Option<usize> {
     Some(match code10 {
-        0 | 10 | 20 | 300 | 600 => 0,
+        0 | 10 | 20 | 300 | 600 | 990 => 0,
         60 => 1,
         30 | 40 | 50 => 2,
         70 | 80 | 90 => 3,
@@ -137,6 +137,9 @@ fn m_modal_group(code10: u32) -> Option<usize> {
 
 impl Interp<'_> {
     /// Sorts the words of the block into codes and letter slots.
+    // Inlined into `block` on the hot path (a second caller, `M98`, made LLVM call it:
+    // +1.9 % instructions parsing stellabee1).
+    #[inline(always)]
     pub(crate) fn classify(&mut self) -> Result<(), ParseError> {
         self.gcodes.clear();
         self.mcodes.clear();

@@ -27,6 +27,8 @@ enum Kind {
     Msg,
     Debug,
     Print,
+    /// `(LOG,...)`: like `PRINT`, but to LinuxCNC's log file.
+    Log,
     Abort,
     Other,
     Plain,
@@ -42,7 +44,7 @@ fn classify(text: &str) -> (Kind, usize) {
         ("msg,", Kind::Msg),
         ("debug,", Kind::Debug),
         ("print,", Kind::Print),
-        ("log,", Kind::Print),
+        ("log,", Kind::Log),
         ("abort,", Kind::Abort),
         ("logopen,", Kind::Other),
         ("logappend,", Kind::Other),
@@ -80,10 +82,12 @@ impl Interp<'_> {
                 self.canon(|_| Canon::Message(t.clone()));
                 self.event(EventKind::Message, t);
             }
-            Kind::Debug | Kind::Print => {
+            Kind::Debug | Kind::Print | Kind::Log => {
                 let t = expand(self, body);
-                if kind == Kind::Debug {
-                    self.canon(|_| Canon::Message(t.clone()));
+                match kind {
+                    Kind::Debug => self.canon(|_| Canon::Message(t.clone())),
+                    Kind::Print => self.canon(|_| Canon::Print(t.clone())),
+                    _ => {}
                 }
                 self.event(EventKind::Message, t);
             }

@@ -105,6 +105,9 @@ pub(crate) struct Frames {
     pub g92: MaybeAxes,
     /// `#5211..#5219`: the G92 offset as stored for G92.3.
     pub g92_saved: MaybeAxes,
+    /// `#5210`: G92 (or G52) applied; LinuxCNC sets it with G92, G52 and G92.3 (also to
+    /// zero offsets) and clears it with G92.1 and G92.2.
+    pub g92_applied: Option<bool>,
     /// Tool length offset applied.
     pub tool: MaybeAxes,
     /// Tool table (known machine only).
@@ -130,6 +133,7 @@ impl Frames {
             active: None,
             g92: [None; N_AXES],
             g92_saved: [None; N_AXES],
+            g92_applied: None,
             tool: [None; N_AXES],
             tools: None,
             home: [[None; N_AXES]; 2],
@@ -147,6 +151,7 @@ impl Frames {
             active: Some(m.active.min(N_SYSTEMS - 1)),
             g92: some_all(&m.g92),
             g92_saved: some_all(&m.g92),
+            g92_applied: Some(m.g92.iter().any(|&o| o != 0.0)),
             tool: [Some(0.0); N_AXES],
             tools: Some(m.tools.clone()),
             home: [some_all(&m.home[0]), some_all(&m.home[1])],
@@ -374,9 +379,11 @@ impl Frames {
             // work + g92 is what the machine sees before rotation: it stays.
             let before = self.get(i).zip(self.g92[i]).map(|(p, o)| p + o);
             self.g92[i] = before.map(|b| b - v);
-            self.g92_saved[i] = self.g92[i];
             self.set(i, Some(v));
         }
+        // LinuxCNC stores every axis's offset in #5211..#5219.
+        self.g92_saved = self.g92;
+        self.g92_applied = Some(true);
     }
 
     /// G92.1 (`clear_saved`) / G92.2: the G92 offset cancelled.
@@ -387,11 +394,13 @@ impl Frames {
                 f.g92_saved = [Some(0.0); N_AXES];
             }
         });
+        self.g92_applied = Some(false);
     }
 
     /// G92.3: the saved G92 offset applied again.
     pub(crate) fn g92_restore(&mut self) {
         self.reframe(ALL_AXES, |f| f.g92 = f.g92_saved);
+        self.g92_applied = Some(true);
     }
 
     /// G52: the local offset of the given axes set to `vals`.
@@ -406,6 +415,8 @@ impl Frames {
                 }
             }
         });
+        self.g92_saved = self.g92;
+        self.g92_applied = Some(true);
     }
 
     /// The offsets of tool `n` from the tool table, if known.

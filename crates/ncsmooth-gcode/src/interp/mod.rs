@@ -4,7 +4,8 @@
 //! # Structure
 //!
 //! * [`Interp::run`] walks the physical lines with a program counter; O-word statements
-//!   ([`oword`]) move it (subroutines, loops, conditionals).
+//!   ([`oword`]) move it (subroutines, loops, conditionals), and so do Fanuc-style
+//!   subprogram calls and returns ([`fanuc`]: `O<n>` programs, `M98`, `M99`).
 //! * Each line is lexed ([`crate::lexer`]), its words sorted ([`block`]) and executed in
 //!   LinuxCNC's order of execution ([`modal`]): comment, feed mode, F, S, T, the M codes
 //!   (tool change, spindle, coolant, overrides, I/O, user codes), dwell, plane, units,
@@ -28,11 +29,13 @@
 //! the top level, nothing else on the line), and the modal state after it, so that
 //! [`crate::rewrite`] can copy every other line verbatim. Moves of lines that may not be
 //! replaced are [`Move::pinned`](ncsmooth::path::Move::pinned): the smoothing leaves them
-//! exactly as programmed.
+//! exactly as programmed. A main program ended by `M99` (which LinuxCNC's task runs again
+//! and again) is pinned whole.
 
 pub(crate) mod block;
 pub(crate) mod comments;
 pub(crate) mod cycles;
+pub(crate) mod fanuc;
 pub mod frames;
 pub(crate) mod modal;
 pub mod motion;
@@ -42,8 +45,10 @@ pub(crate) mod splines;
 
 use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind, Warning};
-use crate::expr::{ParamLookup, UNKNOWN};
-use crate::lexer::{compact_line, read_block, Assign, AssignTarget, LexError, LineBuf, Word};
+use crate::expr::{read_real_value, ParamLookup, UNKNOWN};
+use crate::lexer::{
+    compact_line, read_block, Assign, AssignTarget, Cursor, LexError, LineBuf, Word,
+};
 use crate::source::{flags, LineInfo, SourceMap, WriteState};
 use crate::{ParseOptions, ParseStats, Program};
 use block::{Code, N_SLOTS};
@@ -78,6 +83,9 @@ pub(crate) struct Interp<'a> {
     pub(crate) percent_open: bool,
     /// The next move starts from a position a block-delete switch may have changed.
     pub(crate) pin_next: bool,
+    /// `M99` ended the main program: on the machine it runs again from the top, so
+    /// nothing of it may be replaced (see the module doc).
+    pub(crate) main_m99: bool,
     // Output.
     pub(crate) tp: Toolpath,
     pub(crate) stats: ParseStats,
@@ -133,6 +141,7 @@ impl<'a> Interp<'a> {
             ended: false,
             percent_open: false,
             pin_next: false,
+            main_m99: false,
             tp: Toolpath::new(ncsmooth::geom::Vec3::ZERO),
             stats: ParseStats::default(),
             map: SourceMap::default(),
@@ -181,6 +190,9 @@ impl<'a> Interp<'a> {
             self.pc = self.next_pc;
         }
         self.flow.check_closed(&self)?;
+        if self.main_m99 {
+            self.pin_all();
+        }
         if let Some(&u) = self.stats.units_seen.first() {
             self.tp.units = u;
         }
@@ -287,17 +299,18 @@ impl<'a> Interp<'a> {
             self.pin_last_move();
             return self.o_statement(body);
         }
+        if self.lb.bytes.get(body) == Some(&b'M') {
+            if let Some(statement) = self.fanuc_statement_at(body) {
+                // Like O-word statements, M98 and a returning M99 run no comment.
+                self.map.lines[self.pc].flags |= flags::OWORD;
+                self.pin_last_move();
+                return self.fanuc_statement(statement, body);
+            }
+        }
         // Comments and messages come first, as in LinuxCNC.
         self.comment()?;
         if !self.lb.bytes.is_empty() {
-            let (mut words, mut assigns) = (
-                std::mem::take(&mut self.words),
-                std::mem::take(&mut self.assigns),
-            );
-            let r = read_block(&self.lb, 0, &*self, &mut words, &mut assigns);
-            self.words = words;
-            self.assigns = assigns;
-            r.map_err(|e| self.lex_err(e))?;
+            self.read_words()?;
             if !self.words.is_empty() {
                 self.block()?;
             }
@@ -305,6 +318,39 @@ impl<'a> Interp<'a> {
         }
         self.finish_line(first_time);
         Ok(())
+    }
+
+    /// Reads the words and parameter assignments of the current line.
+    pub(crate) fn read_words(&mut self) -> Result<(), ParseError> {
+        let (mut words, mut assigns) = (
+            std::mem::take(&mut self.words),
+            std::mem::take(&mut self.assigns),
+        );
+        let r = read_block(&self.lb, 0, &*self, &mut words, &mut assigns);
+        self.words = words;
+        self.assigns = assigns;
+        r.map_err(|e| self.lex_err(e))
+    }
+
+    /// A real value (number, parameter or expression) read at compacted index `pos` of the
+    /// current line (`letter`: the word it belongs to, for messages), and the index after
+    /// it.
+    pub(crate) fn value_at(
+        &mut self,
+        pos: usize,
+        letter: Option<u8>,
+    ) -> (Result<f64, LexError>, usize) {
+        let lb = std::mem::take(&mut self.lb);
+        let mut c = Cursor {
+            buf: &lb.bytes,
+            map: &lb.map,
+            line_end: lb.line_end,
+            pos,
+        };
+        let r = read_real_value(&mut c, &*self, 0, letter);
+        let end = c.pos;
+        self.lb = lb;
+        (r, end)
     }
 
     /// Whether any line before this one did something (for the opening-`%` rule).
@@ -412,6 +458,18 @@ impl<'a> Interp<'a> {
             .find(|b| matches!(b, Block::Move(_)))
         {
             mv.pinned = true;
+        }
+    }
+
+    /// Pins every move and clears every replaceable mark (a main program ended by `M99`).
+    fn pin_all(&mut self) {
+        for info in &mut self.map.lines {
+            info.flags &= !flags::REPLACEABLE;
+        }
+        for b in &mut self.tp.blocks {
+            if let Block::Move(mv) = b {
+                mv.pinned = true;
+            }
         }
     }
 

@@ -100,7 +100,10 @@ impl Default for Modal {
 /// LinuxCNC's standard M codes (tenths): these take their own words; every other M code
 /// is a printer or user code.
 fn is_standard_m(code10: u32) -> bool {
-    matches!(code10, 0..=90 | 190 | 300 | 480..=530 | 600..=680 | 700..=730)
+    matches!(
+        code10,
+        0..=90 | 190 | 300 | 480..=530 | 600..=680 | 700..=730 | 980 | 990
+    )
 }
 
 /// The G codes the interpreter executes (tenths), grouped as it handles them.
@@ -172,9 +175,9 @@ impl Interp<'_> {
         for &c in &self.mcodes {
             let why: &'static str = match c.code10 {
                 470 => "program repeat (M47) changes the motion",
-                980 | 990 => {
-                    "Fanuc-style subprograms (M98/M99) are not supported; use O-word subroutines"
-                }
+                // A first-word M98 (or a returning M99) is a statement (`fanuc`).
+                980 => "M98 calls a subprogram only as the first word of its block (after an N number); LinuxCNC knows it nowhere else",
+                990 if !self.flow.calls.is_empty() => "M99 returns from a subprogram only as the first word of its block (LinuxCNC)",
                 code if code % 10 != 0 => {
                     return Err(self.err_word(
                         c.word,
@@ -359,7 +362,7 @@ impl Interp<'_> {
             || self.gcode(|c| c == 960 || c == 970).is_some();
         let m6 = self.mcode(|c| c == 60).is_some();
         for c in self.mcodes.clone() {
-            if matches!(c.code10, 0..=90 | 190 | 300 | 600 | 610) {
+            if matches!(c.code10, 0..=90 | 190 | 300 | 600 | 610 | 990) {
                 continue;
             }
             match c.code10 {
@@ -782,14 +785,23 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// Program stops, after the motion of their block.
+    /// Program stops, after the motion of their block. `M99` in the main program ends it
+    /// as `M2` does (see [`super::fanuc`]).
     fn stops(&mut self) {
         for c in self.mcodes.clone() {
-            if matches!(c.code10, 0 | 10 | 20 | 300 | 600) {
+            if matches!(c.code10, 0 | 10 | 20 | 300 | 600 | 990) {
                 self.event(EventKind::ProgramStop, code_name('M', c.code10));
-                if matches!(c.code10, 20 | 300) {
+                if matches!(c.code10, 20 | 300 | 990) {
                     self.canon(|_| crate::canon::Canon::ProgramEnd);
                     self.end_program();
+                }
+                if c.code10 == 990 {
+                    self.main_m99 = true;
+                    self.warn(
+                        "M99 in the main program: LinuxCNC's task runs the program again from \
+                         the top, endlessly (its preview and rs274 stop here); ncsmooth plans \
+                         one pass and writes the program as programmed",
+                    );
                 }
             }
         }
@@ -1032,15 +1044,7 @@ pub(crate) fn system_param(it: &Interp<'_>, index: u32) -> Option<f64> {
         5021..=5029 => axis_val(i - 5021, it.f.machine()[i - 5021]),
         5161..=5169 => stored(i - 5161, it.f.home[0][i - 5161]),
         5181..=5189 => stored(i - 5181, it.f.home[1][i - 5181]),
-        5210 => {
-            if it.f.g92.iter().all(|v| *v == Some(0.0)) {
-                0.0
-            } else if it.f.g92.iter().all(Option::is_some) {
-                1.0
-            } else {
-                unknown
-            }
-        }
+        5210 => it.f.g92_applied.map_or(unknown, flag),
         5211..=5219 => stored(i - 5211, it.f.g92_saved[i - 5211]),
         5220 => it.f.active.map_or(unknown, |k| (k + 1) as f64),
         5221..=5390 => {

@@ -1,18 +1,24 @@
 //! O-word control flow, as LinuxCNC runs it: `sub`/`endsub`/`call`/`return` (with an
 //! optional returned value, `#<_value>`), `do`/`while`, `while`/`endwhile`,
-//! `repeat`/`endrepeat`, `if`/`elseif`/`else`/`endif`, `break` and `continue`.
+//! `repeat`/`endrepeat`, `if`/`elseif`/`else`/`endif`, `break` and `continue`; the
+//! Fanuc-style `O<n>` program numbers, `M98` and `M99` are in [`super::fanuc`].
 //!
-//! Statements are matched by their O-name (a number or a `<name>`, case-insensitive), which
-//! LinuxCNC requires to be unique for nested constructs. The first statement executed
-//! indexes every O-line of the file once; a `call` finds its `sub` anywhere in the file
-//! (also after `M2`, as LinuxCNC does). Subroutines in other files (LinuxCNC's subroutine
-//! path) are not searched: calling one is an error naming it.
+//! Statements are matched by their O-name (a number without leading zeros, a `<name>`, or
+//! a computed `O#1` / `O[expr]`, case-insensitive), which LinuxCNC requires to be unique
+//! for nested constructs. The first statement executed indexes every O-line of the program
+//! once (up to a closing `%`: LinuxCNC reads nothing after it). A subroutine is known once
+//! the main program has passed its definition; a `call` (or `M98`) of one not yet known
+//! searches forward from the call to the end of the program (also past `M2`, as LinuxCNC
+//! does) and records what it finds, so the main program running into a definition it
+//! already called is an error, as in LinuxCNC. Subroutines in other files (LinuxCNC's
+//! subroutine path) are not searched: calling one is an error naming it.
 //!
 //! A subroutine gets fresh locals (`#1`..`#30` from the call's arguments, see
 //! [`super::params`]). Conditions must be known: a condition that depends on machine state
 //! ncsmooth cannot know (a stored offset) is an error. Calls nest at most
-//! [`MAX_CALL_DEPTH`] deep and a loop may run at most [`MAX_ITERATIONS`] times in all, so
-//! that a program that never ends is an error rather than a hang.
+//! [`MAX_CALL_DEPTH`] deep, and loop iterations and calls together number at most
+//! [`MAX_ITERATIONS`] (subroutines that each call the next twice would otherwise run for
+//! ever), so that a program that never ends is an error rather than a hang.
 
 use super::Interp;
 use crate::error::{ParseError, ParseErrorKind};
@@ -23,7 +29,8 @@ use std::collections::HashMap;
 /// Deepest subroutine nesting (LinuxCNC allows 10 in its standard build; deeper nesting is
 /// refused here too so that runaway recursion ends).
 pub const MAX_CALL_DEPTH: usize = 64;
-/// Most loop iterations (all loops together) before the program is declared endless.
+/// Most loop iterations and subroutine calls (all together) before the program is
+/// declared endless.
 pub const MAX_ITERATIONS: u64 = 10_000_000;
 
 /// An O-word keyword.
@@ -44,6 +51,8 @@ pub(crate) enum Kw {
     Continue,
     Repeat,
     Endrepeat,
+    /// No keyword: a Fanuc-style program number (`O1000`), see [`super::fanuc`].
+    Bare,
 }
 
 const KEYWORDS: [(&[u8], Kw); 15] = [
@@ -87,13 +96,27 @@ struct Frame {
     left: u64,
 }
 
+/// How a subroutine was called (LinuxCNC's call types): each style must be ended by its
+/// own statement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum CallKind {
+    /// `O<name> call` of an `O<name> sub`, ended by `endsub` or `return`.
+    OWord,
+    /// `M98 P<n>` of a Fanuc-style `O<n>` program, ended by `M99`.
+    M98,
+}
+
 /// An active subroutine call.
 #[derive(Clone, Debug)]
-struct Call {
-    name: Box<[u8]>,
-    return_line: usize,
+pub(crate) struct Call {
+    pub(crate) name: Box<[u8]>,
+    pub(crate) kind: CallKind,
+    pub(crate) return_line: usize,
     /// Open blocks of the caller (restored on return).
-    blocks: usize,
+    pub(crate) blocks: usize,
+    /// The call had a block-delete `/`: whether it ran depends on the switch, so the first
+    /// move after the return may not be smoothed into what came before.
+    pub(crate) block_delete: bool,
 }
 
 /// Control-flow state.
@@ -101,9 +124,12 @@ struct Call {
 pub(crate) struct Flow {
     index: Option<Vec<OLine>>,
     blocks: Vec<Frame>,
-    calls: Vec<Call>,
-    subs: HashMap<Box<[u8]>, usize>,
+    pub(crate) calls: Vec<Call>,
+    /// Known subroutines: the line of their definition and its kind (`Sub` or `Bare`).
+    subs: HashMap<Box<[u8]>, (usize, Kw)>,
     iterations: u64,
+    /// `M98 ... L` repeats left, per call level of the `M98` (-1: none running).
+    pub(crate) m98_loops: Vec<i64>,
 }
 
 impl Flow {
@@ -138,7 +164,7 @@ impl Flow {
     }
 }
 
-fn name_text(n: &[u8]) -> String {
+pub(crate) fn name_text(n: &[u8]) -> String {
     if n.first().is_some_and(u8::is_ascii_digit) {
         String::from_utf8_lossy(n).into_owned()
     } else {
@@ -150,7 +176,29 @@ fn kw_text(k: Kw) -> &'static str {
     KEYWORDS
         .iter()
         .find(|(_, kw)| *kw == k)
-        .map_or("?", |(t, _)| std::str::from_utf8(t).unwrap_or("?"))
+        .map_or("", |(t, _)| std::str::from_utf8(t).unwrap_or("?"))
+}
+
+/// Largest magnitude LinuxCNC reads as an integer (a C `int`).
+const MAX_INTEGER: f64 = i32::MAX as f64;
+
+/// A value as LinuxCNC's `read_integer_value` takes it: within 0.0001 of an integer
+/// (`None` otherwise, or when unknown or out of range).
+pub(crate) fn linuxcnc_integer(v: f64) -> Option<i64> {
+    /// How far from an integer LinuxCNC still reads a value as that integer.
+    const INTEGER_TOLERANCE: f64 = 0.0001;
+    if !v.is_finite() || v.abs() > MAX_INTEGER {
+        return None;
+    }
+    let n = v.floor();
+    let d = v - n;
+    if d > 1.0 - INTEGER_TOLERANCE {
+        Some(n as i64 + 1)
+    } else if d > INTEGER_TOLERANCE {
+        None
+    } else {
+        Some(n as i64)
+    }
 }
 
 /// Index just past an `N` line number at the start of compacted bytes.
@@ -166,9 +214,17 @@ pub(crate) fn skip_line_number(b: &[u8]) -> usize {
 }
 
 /// Reads `O<name>KEYWORD` at `at`: the name (numbers without leading zeros), the keyword
-/// and the index after it.
+/// ([`Kw::Bare`] when nothing follows the name) and the index after it.
 fn read_header(b: &[u8], at: usize) -> Option<Header> {
     let (name, i) = read_name_at(b, at + 1)?;
+    keyword_or_bare(b, name, i)
+}
+
+/// The keyword at `i`, or [`Kw::Bare`] at the end of the line.
+fn keyword_or_bare(b: &[u8], name: Box<[u8]>, i: usize) -> Option<Header> {
+    if i == b.len() {
+        return Some((name, Kw::Bare, i));
+    }
     let (kw, i) = read_keyword(b, i)?;
     Some((name, kw, i))
 }
@@ -210,12 +266,13 @@ fn read_name_at(b: &[u8], mut i: usize) -> Option<(Box<[u8]>, usize)> {
 }
 
 impl Interp<'_> {
-    /// Every O-line of the file (built once).
+    /// Every O-line of the program up to a closing `%` (built once).
     fn o_index(&mut self) -> &[OLine] {
         if self.flow.index.is_none() {
             let mut lb = LineBuf::default();
             let mut v = Vec::new();
-            for (k, &(s, e)) in self.lines.iter().enumerate() {
+            let end = self.closing_percent_line().unwrap_or(self.lines.len());
+            for (k, &(s, e)) in self.lines[..end].iter().enumerate() {
                 let line = &self.src.as_bytes()[s..e];
                 if !line.iter().any(|&c| c == b'o' || c == b'O') {
                     continue;
@@ -236,6 +293,30 @@ impl Interp<'_> {
         self.flow.index.as_deref().unwrap_or(&[])
     }
 
+    /// The line of the `%` that ends the program text, if any: the second `%` line when the
+    /// first non-blank line is `%` (LinuxCNC's rule), else the first `%` line.
+    fn closing_percent_line(&self) -> Option<usize> {
+        let first_byte = |&(s, e): &(usize, usize)| {
+            self.src.as_bytes()[s..e]
+                .iter()
+                .copied()
+                .find(|c| !c.is_ascii_whitespace())
+        };
+        let mut percents = self
+            .lines
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| first_byte(l) == Some(b'%'))
+            .map(|(k, _)| k);
+        let first = percents.next()?;
+        let opens = self.lines[..first].iter().all(|l| first_byte(l).is_none());
+        if opens {
+            percents.next()
+        } else {
+            Some(first)
+        }
+    }
+
     /// The first O-line after line `from` with `name` and one of `kws`.
     fn find_after(&mut self, from: usize, name: &[u8], kws: &[Kw]) -> Option<usize> {
         self.o_index()
@@ -244,7 +325,7 @@ impl Interp<'_> {
             .map(|o| o.line)
     }
 
-    fn flow_err(&self, why: String) -> ParseError {
+    pub(crate) fn flow_err(&self, why: String) -> ParseError {
         let (s, e) = self.lines[self.pc];
         self.err_at(s..e, ParseErrorKind::ControlFlow { why })
     }
@@ -303,11 +384,12 @@ impl Interp<'_> {
         Ok(v != 0.0)
     }
 
-    fn count_iteration(&mut self) -> Result<(), ParseError> {
+    pub(crate) fn count_iteration(&mut self) -> Result<(), ParseError> {
         self.flow.iterations += 1;
         if self.flow.iterations > MAX_ITERATIONS {
             return Err(self.flow_err(format!(
-                "more than {MAX_ITERATIONS} loop iterations: the program does not end"
+                "more than {MAX_ITERATIONS} loop iterations and subroutine calls: the program \
+                 does not end"
             )));
         }
         Ok(())
@@ -315,7 +397,7 @@ impl Interp<'_> {
 
     /// Executes the O-word statement at compacted index `at` of the current line.
     pub(crate) fn o_statement(&mut self, at: usize) -> Result<(), ParseError> {
-        let header = if self.lb.bytes.get(at + 1) == Some(&b'#') {
+        let header = if matches!(self.lb.bytes.get(at + 1), Some(b'#' | b'[')) {
             self.computed_header(at)?
         } else {
             read_header(&self.lb.bytes, at)
@@ -333,19 +415,8 @@ impl Interp<'_> {
         let args = self.o_args(after)?;
         let pc = self.pc;
         match kw {
-            Kw::Sub => {
-                if !self.flow.calls.is_empty() {
-                    return Err(self.flow_err(format!(
-                        "o{}: nested subroutine definition (LinuxCNC refuses it)",
-                        name_text(&name)
-                    )));
-                }
-                self.flow.subs.insert(name.clone(), pc);
-                let end = self.find_after(pc, &name, &[Kw::Endsub]).ok_or_else(|| {
-                    self.flow_err(format!("o{} sub without endsub", name_text(&name)))
-                })?;
-                self.next_pc = end + 1;
-            }
+            Kw::Sub => self.define_sub(name)?,
+            Kw::Bare => self.fanuc_program_number(&name)?,
             Kw::Endsub | Kw::Return => self.leave_sub(&name, kw, &args)?,
             Kw::Call => self.call(name, &args)?,
             Kw::Do => self.flow.blocks.push(Frame {
@@ -429,20 +500,86 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// `O#<name> call` and the like: the O-number is a parameter's value.
+    /// `O<name> sub` met by the main program: records the definition and skips its body.
+    fn define_sub(&mut self, name: Box<[u8]>) -> Result<(), ParseError> {
+        let pc = self.pc;
+        if !self.flow.calls.is_empty() {
+            return Err(self.flow_err(format!(
+                "o{}: nested subroutine definition (LinuxCNC refuses it)",
+                name_text(&name)
+            )));
+        }
+        if let Some(&(line, _)) = self.flow.subs.get(&name) {
+            return Err(self.flow_err(if line == pc {
+                format!(
+                    "o{} sub: the main program runs into a subroutine it has already called \
+                     (LinuxCNC: found in illegal location); end the main program with M2 or \
+                     M30 before the subroutine definitions",
+                    name_text(&name)
+                )
+            } else {
+                format!(
+                    "o{} sub: already defined at line {} (LinuxCNC refuses a redefinition)",
+                    name_text(&name),
+                    line + 1
+                )
+            }));
+        }
+        let end = self
+            .find_after(pc, &name, &[Kw::Endsub])
+            .ok_or_else(|| self.flow_err(format!("o{} sub without endsub", name_text(&name))))?;
+        // LinuxCNC refuses a definition inside a definition, also a Fanuc-style one.
+        let nested = self
+            .o_index()
+            .iter()
+            .find(|o| o.line > pc && o.line < end && matches!(o.kw, Kw::Sub | Kw::Bare))
+            .map(|o| (o.line, o.name.clone()));
+        if let Some((line, inner)) = nested {
+            let (s, e) = self.lines[line];
+            return Err(self.err_at(
+                s..e,
+                ParseErrorKind::ControlFlow {
+                    why: format!(
+                        "o{}: subroutine definition inside o{} sub (LinuxCNC refuses nested \
+                         definitions)",
+                        name_text(&inner),
+                        name_text(&name)
+                    ),
+                },
+            ));
+        }
+        self.flow.subs.insert(name, (pc, Kw::Sub));
+        self.next_pc = end + 1;
+        Ok(())
+    }
+
+    /// The definition of subroutine `name` (line and kind): known, or the first one after
+    /// the current line (then recorded, as LinuxCNC records what its forward search finds).
+    pub(crate) fn find_sub(&mut self, name: &[u8]) -> Option<(usize, Kw)> {
+        if let Some(&found) = self.flow.subs.get(name) {
+            return Some(found);
+        }
+        let pc = self.pc;
+        let found = self
+            .o_index()
+            .iter()
+            .find(|o| o.line > pc && &*o.name == name && matches!(o.kw, Kw::Sub | Kw::Bare))
+            .map(|o| (o.line, o.kw))?;
+        self.flow.subs.insert(name.into(), found);
+        Some(found)
+    }
+
+    /// `O#<name> call`, `O[expr] call` and the like: the O-number is a computed value.
     fn computed_header(&mut self, at: usize) -> Result<Option<Header>, ParseError> {
-        let lb = std::mem::take(&mut self.lb);
-        let mut c = Cursor {
-            buf: &lb.bytes,
-            map: &lb.map,
-            line_end: lb.line_end,
-            pos: at + 1,
-        };
-        let r = read_real_value(&mut c, &*self, 0, None);
-        let pos = c.pos;
-        let out = match r {
+        let (r, pos) = self.value_at(at + 1, None);
+        match r.map(|v| (v, linuxcnc_integer(v))) {
             Err(e) => Err(self.lex_err(e)),
-            Ok(v) if v.is_nan() || v < 0.0 || v.fract() != 0.0 => {
+            Ok((_, Some(n))) if n >= 0 => Ok(keyword_or_bare(
+                &self.lb.bytes,
+                n.to_string().into_bytes().into_boxed_slice(),
+                pos,
+            )),
+            Ok((v, _)) => {
                 let (s, e) = self.lines[self.pc];
                 Err(self.err_at(
                     s..e,
@@ -451,16 +588,7 @@ impl Interp<'_> {
                     },
                 ))
             }
-            Ok(v) => Ok(read_keyword(&lb.bytes, pos).map(|(kw, i)| {
-                (
-                    format!("{}", v as u64).into_bytes().into_boxed_slice(),
-                    kw,
-                    i,
-                )
-            })),
-        };
-        self.lb = lb;
-        out
+        }
     }
 
     /// `while`: the tail of a `do` loop, or the head of a `while` loop.
@@ -579,35 +707,50 @@ impl Interp<'_> {
 
     /// `call`: enters the subroutine with the arguments as `#1`, `#2`, ...
     fn call(&mut self, name: Box<[u8]>, args: &[f64]) -> Result<(), ParseError> {
-        let sub = match self.flow.subs.get(&name) {
-            Some(&l) => l,
+        let sub = match self.find_sub(&name) {
+            Some((l, Kw::Sub)) => l,
+            Some(_) => {
+                return Err(self.flow_err(format!(
+                    "o{n} call: O{n} is a Fanuc-style program (no sub keyword); LinuxCNC calls \
+                     it only with M98 P{n}",
+                    n = name_text(&name)
+                )))
+            }
             None => {
-                let found = self
-                    .o_index()
-                    .iter()
-                    .find(|o| o.kw == Kw::Sub && o.name == name)
-                    .map(|o| o.line);
-                found.ok_or_else(|| {
-                    self.flow_err(format!(
-                        "subroutine o{} is not defined in this file (subroutines in separate files are not read)",
-                        name_text(&name)
-                    ))
-                })?
+                return Err(self.flow_err(format!(
+                    "subroutine o{} is neither defined before the call nor after it up to the \
+                     end of the program (subroutines in separate files are not read)",
+                    name_text(&name)
+                )))
             }
         };
+        self.enter_call(name, CallKind::OWord, self.pc + 1)?;
+        self.store.enter(args);
+        self.next_pc = sub + 1;
+        Ok(())
+    }
+
+    /// Pushes a call frame returning to `return_line`.
+    pub(crate) fn enter_call(
+        &mut self,
+        name: Box<[u8]>,
+        kind: CallKind,
+        return_line: usize,
+    ) -> Result<(), ParseError> {
         if self.flow.calls.len() >= MAX_CALL_DEPTH {
             return Err(self.flow_err(format!(
                 "subroutine calls nested more than {MAX_CALL_DEPTH} deep"
             )));
         }
+        self.count_iteration()?;
         self.flow.calls.push(Call {
             name,
-            return_line: self.pc + 1,
+            kind,
+            return_line,
             blocks: self.flow.blocks.len(),
+            block_delete: self.lb.block_delete,
         });
-        self.store.enter(args);
         self.m.value_returned = false;
-        self.next_pc = sub + 1;
         Ok(())
     }
 
@@ -620,6 +763,15 @@ impl Interp<'_> {
                 kw_text(kw)
             )));
         };
+        if c.kind == CallKind::M98 {
+            return Err(self.flow_err(format!(
+                "o{} {}: Fanuc-style program O{} was called by M98 and must end with M99 \
+                 (LinuxCNC)",
+                name_text(name),
+                kw_text(kw),
+                name_text(&c.name)
+            )));
+        }
         // `return` may carry any O-name (LinuxCNC returns from the enclosing subroutine);
         // `endsub` must close the subroutine being run.
         if kw == Kw::Endsub && &*c.name != name {
@@ -630,20 +782,22 @@ impl Interp<'_> {
                 name_text(&c.name)
             )));
         }
-        let c = self.flow.calls.pop().unwrap_or_else(|| unreachable!());
+        self.return_from_call(args.first().copied());
+        Ok(())
+    }
+
+    /// Leaves the innermost call, with the returned value if any.
+    pub(crate) fn return_from_call(&mut self, value: Option<f64>) {
+        let Some(c) = self.flow.calls.pop() else {
+            return;
+        };
         self.flow.blocks.truncate(c.blocks);
         self.store.leave();
-        match args.first() {
-            Some(&v) => {
-                self.m.value = v;
-                self.m.value_returned = true;
-            }
-            None => {
-                self.m.value = 0.0;
-                self.m.value_returned = false;
-            }
+        self.m.value = value.unwrap_or(0.0);
+        self.m.value_returned = value.is_some();
+        if c.block_delete {
+            self.pin_next = true;
         }
         self.next_pc = c.return_line;
-        Ok(())
     }
 }

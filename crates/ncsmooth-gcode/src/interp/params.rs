@@ -4,7 +4,9 @@
 //!
 //! A subroutine call gets fresh locals: `#1`..`#30` are set from the call's arguments
 //! (the rest are 0) and local names start undefined; the caller's locals are restored on
-//! return. Numbered parameters `#31` and above, and `#<_names>`, are global.
+//! return. A Fanuc-style `M98` call shares the caller's `#1`..`#30` (LinuxCNC passes them
+//! in and out) but still gets fresh local names. Numbered parameters `#31` and above, and
+//! `#<_names>`, are global.
 //!
 //! Predefined read-only parameters (`#5420` the current X, `#<_units>`, ...) are not
 //! stored: the interpreter answers them from its state ([`super::Interp`] implements
@@ -21,6 +23,8 @@ pub(crate) const LOCAL_NUMBERED: u32 = 30;
 struct Scope {
     numbered: [Option<f64>; LOCAL_NUMBERED as usize],
     named: HashMap<Box<[u8]>, f64>,
+    /// `#1`..`#30` are the caller's (an `M98` call): handed back on return.
+    shared: bool,
 }
 
 /// Parameter values.
@@ -107,10 +111,25 @@ impl Store {
         self.scopes.push(s);
     }
 
-    /// Leaves a subroutine: the caller's locals come back.
+    /// Enters an `M98` subprogram: the caller's `#1`..`#30`, fresh local names.
+    pub(crate) fn enter_shared(&mut self) {
+        let s = Scope {
+            numbered: self.scope().numbered,
+            named: HashMap::new(),
+            shared: true,
+        };
+        self.scopes.push(s);
+    }
+
+    /// Leaves a subroutine: the caller's locals come back (with the values of `#1`..`#30`
+    /// an `M98` subprogram left).
     pub(crate) fn leave(&mut self) {
         if self.scopes.len() > 1 {
-            self.scopes.pop();
+            if let Some(s) = self.scopes.pop() {
+                if s.shared {
+                    self.scope_mut().numbered = s.numbered;
+                }
+            }
         }
     }
 
@@ -145,5 +164,26 @@ mod tests {
         assert_eq!(s.get(101), Some(4.0));
         assert_eq!(s.get_named(b"X"), Some(1.0));
         assert_eq!(s.get_named(b"_G"), Some(6.0));
+    }
+
+    #[test]
+    fn m98_shares_numbered_locals_but_not_names() {
+        let mut s = Store::new();
+        s.set(1, 5.0);
+        s.set_named(b"X", 1.0);
+        s.enter_shared();
+        assert_eq!(s.get(1), Some(5.0));
+        assert_eq!(s.get(2), None);
+        assert_eq!(s.get_named(b"X"), None);
+        s.set(1, 3.0);
+        s.set(30, 4.0);
+        s.set_named(b"X", 9.0);
+        s.enter(&[]);
+        assert_eq!(s.get(1), Some(0.0));
+        s.leave();
+        s.leave();
+        assert_eq!(s.get(1), Some(3.0));
+        assert_eq!(s.get(30), Some(4.0));
+        assert_eq!(s.get_named(b"X"), Some(1.0));
     }
 }
