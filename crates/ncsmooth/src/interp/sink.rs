@@ -9,7 +9,8 @@
 //!   each, 221 296 rows for the 221 s of the butterfly's unsmoothed jerk-limited plan);
 //! * [`FnSink`]: a callback per row (to decimate, forward or stop early: an error stops
 //!   the run and comes back as [`super::PlanError::Io`]);
-//! * [`NullSink`]: nothing (only the report is wanted).
+//! * [`NullSink`]: nothing (only the report is wanted);
+//! * `(A, B)`: both, in order; `Option<S>`: `S` when there is one.
 //!
 //! Whatever the sink, [`Measured`] wraps it inside the run: the report's kinematics
 //! (finite-difference velocity, acceleration and jerk per axis, jumps, first and last
@@ -44,6 +45,38 @@ impl SetpointSink for Vec<Setpoint> {
     fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
         Vec::push(self, *sp);
         Ok(())
+    }
+}
+
+/// Both sinks, each row to the first and then the second (e.g. the CSV and an in-memory
+/// summary in one run).
+impl<A: SetpointSink, B: SetpointSink> SetpointSink for (A, B) {
+    fn begin(&mut self, extra_axes_mask: u8) -> io::Result<()> {
+        self.0.begin(extra_axes_mask)?;
+        self.1.begin(extra_axes_mask)
+    }
+    #[inline]
+    fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
+        self.0.push(sp)?;
+        self.1.push(sp)
+    }
+    fn finish(&mut self) -> io::Result<()> {
+        self.0.finish()?;
+        self.1.finish()
+    }
+}
+
+/// The sink when there is one, nothing otherwise.
+impl<S: SetpointSink> SetpointSink for Option<S> {
+    fn begin(&mut self, extra_axes_mask: u8) -> io::Result<()> {
+        self.as_mut().map_or(Ok(()), |s| s.begin(extra_axes_mask))
+    }
+    #[inline]
+    fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
+        self.as_mut().map_or(Ok(()), |s| s.push(sp))
+    }
+    fn finish(&mut self) -> io::Result<()> {
+        self.as_mut().map_or(Ok(()), |s| s.finish())
     }
 }
 
@@ -209,6 +242,10 @@ mod tests {
         feed(&mut csv);
         let mut vec = Measured::new(Vec::new());
         feed(&mut vec);
+        let mut both = Measured::new((Vec::new(), Some(Vec::new())));
+        feed(&mut both);
+        assert_eq!(both.inner.0, rows);
+        assert_eq!(both.inner.1.as_ref(), Some(&rows));
         let mut count = 0usize;
         let mut cb = Measured::new(FnSink(|_: &Setpoint| {
             count += 1;

@@ -91,6 +91,62 @@ pub fn deviation_segments(
     measure(output, programmed, accuracy).0
 }
 
+/// Calls `f(vertex, line, distance)` for every programmed vertex (the start, then the end
+/// of every segment, tagged with its line) with its distance to the primitives of `out`.
+fn for_each_vertex_distance(
+    out: &Bvh,
+    programmed: &[(&Segment, u32)],
+    mut f: impl FnMut(Vec3, u32, f64),
+) {
+    let mut q = Query::new(out);
+    if let Some((first, line)) = programmed.first() {
+        let p = first.start();
+        f(p, *line, q.dist(p));
+    }
+    for (s, line) in programmed {
+        let p = s.end();
+        f(p, *line, q.dist(p));
+    }
+}
+
+/// Distance (mm) from every programmed vertex (the start, then the end of every move,
+/// rapids included) to the output path, in program order, within `accuracy`: the
+/// per-vertex figures whose largest is [`Deviation::vertex_to_output_mm`] (side (b)), for
+/// histograms of the corner deviation. Empty when either path has no move.
+///
+/// ```
+/// use ncsmooth::geom::Vec3;
+/// use ncsmooth::path::Toolpath;
+/// use ncsmooth::verify::vertex_distances;
+///
+/// let square = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)];
+/// let program = Toolpath::from_polyline(&square, None);
+/// // The corner (1, 0) cut by a line from (0.9, 0) to (1, 1).
+/// let cut = Toolpath::from_polyline(&[square[0], Vec3::new(0.9, 0.0, 0.0), square[2]], None);
+/// let d = vertex_distances(&cut, &program, 1e-9);
+/// assert_eq!(d.len(), 3);
+/// assert!(d[0].abs() < 1e-9 && d[2].abs() < 1e-9);
+/// assert!((d[1] - 0.1 / 1.01f64.sqrt()).abs() < 1e-9);
+/// ```
+pub fn vertex_distances(output: &Toolpath, programmed: &Toolpath, accuracy: f64) -> Vec<f64> {
+    let flat = if accuracy > 0.0 && accuracy.is_finite() {
+        accuracy * 0.25
+    } else {
+        0.25e-6
+    };
+    let prog: Vec<(&Segment, u32)> = programmed.moves().map(|m| (&m.segment, m.line)).collect();
+    let mut prims = Vec::new();
+    for (i, m) in output.moves().enumerate() {
+        push_prims(&m.segment, i as u32, flat, &mut prims);
+    }
+    if prims.is_empty() || prog.is_empty() {
+        return Vec::new();
+    }
+    let mut out = Vec::with_capacity(prog.len() + 1);
+    for_each_vertex_distance(&Bvh::new(prims), &prog, |_, _, d| out.push(d));
+    out
+}
+
 /// [`deviation_segments`], and the number of nearest-distance queries (a) made (the work
 /// of the branch and bound, for the tests).
 fn measure(
@@ -140,19 +196,13 @@ fn measure(
     } else {
         Bvh::new(out_prims.clone())
     };
-    let mut q = Query::new(&out_bvh);
-    let vertex = |p: Vec3, line: u32, dev: &mut Deviation, q: &mut Query| {
-        let d = q.dist(p);
+    for_each_vertex_distance(&out_bvh, programmed, |p, line, d| {
         if d > dev.vertex_to_output_mm {
             dev.vertex_to_output_mm = d;
             dev.vertex_at = p;
             dev.vertex_line = line;
         }
-    };
-    vertex(programmed[0].0.start(), programmed[0].1, &mut dev, &mut q);
-    for (s, line) in programmed {
-        vertex(s.end(), *line, &mut dev, &mut q);
-    }
+    });
 
     // (a) output points to the programmed path.
     let prog_bvh = Bvh::new(prog_prims);
