@@ -80,7 +80,7 @@ fn path_group(page: &PageView) -> Group {
     let (ax, ay) = (axis_name(axes[0]), axis_name(axes[1]));
     let mut full = Plot::new(
         "path",
-        "Programmed and smoothed paths",
+        "The programmed path and where the insets are",
         &format!("{ax} (mm)"),
         &format!("{ay} (mm)"),
         [WIDE_PX, 640.0],
@@ -99,18 +99,12 @@ fn path_group(page: &PageView) -> Group {
         style: Style::solid("#000", 2.5),
         label: Some("program".into()),
     });
-    for m in page.methods.iter().filter(|m| m.name != "none") {
-        full.marks.push(Mark::Line {
-            pts: path_points(&m.data.planned, MoveKind::Feed, axes, chord, None),
-            style: Style::solid(method_color(m.name), 1.0),
-            label: Some(m.name.into()),
-        });
-    }
     let mut plots = vec![full];
     let mut text = String::from(
-        "The whole path (the methods lie within the tolerance of the program: at this scale \
-         they coincide). Insets: the tolerance band (grey: every point within tol of the \
-         program) with the program's vertices (dots) and each method's planned path.",
+        "The whole program (feed moves black, rapids dashed). Every method's path lies within \
+         the tolerance of it, far less than a pixel here, so only the insets draw them: the \
+         tolerance band (grey: every point within tol of the program), the program's \
+         vertices (dots) and each method's planned path.",
     );
     let h = INSET_HALF_TOLS * page.tol;
     let mut insets = Vec::new();

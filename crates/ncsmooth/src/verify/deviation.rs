@@ -88,7 +88,7 @@ pub fn deviation_segments(
     programmed: &[(&Segment, u32)],
     accuracy: f64,
 ) -> Deviation {
-    measure(output, programmed, accuracy).0
+    measure(output, programmed, accuracy, None).0
 }
 
 /// Calls `f(vertex, line, distance)` for every programmed vertex (the start, then the end
@@ -109,42 +109,37 @@ fn for_each_vertex_distance(
     }
 }
 
-/// Distance (mm) from every programmed vertex (the start, then the end of every move,
-/// rapids included) to the output path, in program order, within `accuracy`: the
-/// per-vertex figures whose largest is [`Deviation::vertex_to_output_mm`] (side (b)), for
-/// histograms of the corner deviation. Empty when either path has no move.
+/// [`deviation`], and the distance (mm) from every programmed vertex (the start, then the
+/// end of every move, rapids included) to the output path, in program order, within
+/// `accuracy`: the per-vertex figures whose largest is [`Deviation::vertex_to_output_mm`]
+/// (side (b)), for histograms of the corner deviation, at the cost of [`deviation`] alone.
+/// The distances are empty when either path has no move.
 ///
 /// ```
 /// use ncsmooth::geom::Vec3;
 /// use ncsmooth::path::Toolpath;
-/// use ncsmooth::verify::vertex_distances;
+/// use ncsmooth::verify::deviation_with_vertex_distances;
 ///
 /// let square = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)];
 /// let program = Toolpath::from_polyline(&square, None);
 /// // The corner (1, 0) cut by a line from (0.9, 0) to (1, 1).
 /// let cut = Toolpath::from_polyline(&[square[0], Vec3::new(0.9, 0.0, 0.0), square[2]], None);
-/// let d = vertex_distances(&cut, &program, 1e-9);
+/// let (dev, d) = deviation_with_vertex_distances(&cut, &program, 1e-9);
 /// assert_eq!(d.len(), 3);
 /// assert!(d[0].abs() < 1e-9 && d[2].abs() < 1e-9);
 /// assert!((d[1] - 0.1 / 1.01f64.sqrt()).abs() < 1e-9);
+/// assert_eq!(dev.vertex_to_output_mm, d[1]);
 /// ```
-pub fn vertex_distances(output: &Toolpath, programmed: &Toolpath, accuracy: f64) -> Vec<f64> {
-    let flat = if accuracy > 0.0 && accuracy.is_finite() {
-        accuracy * 0.25
-    } else {
-        0.25e-6
-    };
+pub fn deviation_with_vertex_distances(
+    output: &Toolpath,
+    programmed: &Toolpath,
+    accuracy: f64,
+) -> (Deviation, Vec<f64>) {
+    let out: Vec<(&Segment, u32)> = output.moves().map(|m| (&m.segment, m.line)).collect();
     let prog: Vec<(&Segment, u32)> = programmed.moves().map(|m| (&m.segment, m.line)).collect();
-    let mut prims = Vec::new();
-    for (i, m) in output.moves().enumerate() {
-        push_prims(&m.segment, i as u32, flat, &mut prims);
-    }
-    if prims.is_empty() || prog.is_empty() {
-        return Vec::new();
-    }
-    let mut out = Vec::with_capacity(prog.len() + 1);
-    for_each_vertex_distance(&Bvh::new(prims), &prog, |_, _, d| out.push(d));
-    out
+    let mut distances = Vec::new();
+    let (dev, _) = measure(&out, &prog, accuracy, Some(&mut distances));
+    (dev, distances)
 }
 
 /// [`deviation_segments`], and the number of nearest-distance queries (a) made (the work
@@ -153,6 +148,7 @@ fn measure(
     output: &[(&Segment, u32)],
     programmed: &[(&Segment, u32)],
     accuracy: f64,
+    mut vertex_distances: Option<&mut Vec<f64>>,
 ) -> (Deviation, usize) {
     let accuracy = if accuracy > 0.0 && accuracy.is_finite() {
         accuracy
@@ -197,6 +193,9 @@ fn measure(
         Bvh::new(out_prims.clone())
     };
     for_each_vertex_distance(&out_bvh, programmed, |p, line, d| {
+        if let Some(v) = vertex_distances.as_deref_mut() {
+            v.push(d);
+        }
         if d > dev.vertex_to_output_mm {
             dev.vertex_to_output_mm = d;
             dev.vertex_at = p;
@@ -560,7 +559,7 @@ mod tests {
                 a => a.clone(),
             })
             .collect();
-        let (d, queries) = measure(&tag(&arcs), &tag(&prog), acc);
+        let (d, queries) = measure(&tag(&arcs), &tag(&prog), acc, None);
         let brute = brute_output_to_programmed(&arcs, &prog, 2000);
         assert!(brute > 5e-5 && brute < 1e-3, "{brute}");
         assert!(
@@ -577,7 +576,7 @@ mod tests {
             arcs.len()
         );
         // The chords of the first spiral are bounded in closed form too.
-        let (_, queries) = measure(&tag(&out), &tag(&prog), acc);
+        let (_, queries) = measure(&tag(&out), &tag(&prog), acc, None);
         assert!(
             queries < 100 * out.len(),
             "{queries} queries for {} pieces",
