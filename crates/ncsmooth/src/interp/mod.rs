@@ -73,7 +73,7 @@ pub use setpoints::{
     printed, ExtraFdMeter, FdMeter, FdStats, Jump, Setpoint, SetpointWriter, FEED_DECIMALS,
     POSITION_DECIMALS,
 };
-pub use sink::{FnSink, Measured, NullSink, SetpointSink};
+pub use sink::{FnSink, Measured, NullSink, PrintedRow, SetpointSink};
 
 use crate::feed::PathIndex;
 use crate::geom::{

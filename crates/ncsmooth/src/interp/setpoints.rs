@@ -4,7 +4,7 @@
 //! as printed** (each printed number is parsed back), with the actual time column (so a
 //! non-uniform step is measured correctly).
 
-use super::sink::SetpointSink;
+use super::sink::{PrintedRow, SetpointSink};
 use crate::decimal::POW10_U64;
 use crate::geom::Vec3;
 use crate::path::{ExtraAxes, EXTRA_AXIS_NAMES};
@@ -334,11 +334,17 @@ impl<W: Write> SetpointSink for SetpointWriter<W> {
     /// Writes one row.
     #[inline]
     fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
+        self.push_printed(sp).map(|_| ())
+    }
+    /// Writes one row and returns its time and position as printed.
+    #[inline]
+    fn push_printed(&mut self, sp: &Setpoint) -> io::Result<Option<PrintedRow>> {
         self.line.clear();
-        put(&mut self.line, sp.t, POSITION_DECIMALS);
+        let t = put(&mut self.line, sp.t, POSITION_DECIMALS);
+        let mut x = [0.0; 3];
         for i in 0..3 {
             self.line.push(b',');
-            put(&mut self.line, sp.p[i], POSITION_DECIMALS);
+            x[i] = put(&mut self.line, sp.p[i], POSITION_DECIMALS);
         }
         self.line.push(b',');
         put(&mut self.line, sp.feed, FEED_DECIMALS);
@@ -351,7 +357,8 @@ impl<W: Write> SetpointSink for SetpointWriter<W> {
             );
         }
         self.line.push(b'\n');
-        self.out.write_all(&self.line)
+        self.out.write_all(&self.line)?;
+        Ok(Some((t, x)))
     }
     fn finish(&mut self) -> io::Result<()> {
         self.out.flush()
