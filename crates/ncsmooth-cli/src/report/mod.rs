@@ -315,8 +315,11 @@ fn summary_table(h: &mut String, methods: &[MethodView], tol: f64) {
 }
 
 /// A two-column table of `(name, value)`.
-fn kv_table(h: &mut String, caption: &str, rows: &[(&str, String)]) {
-    let _ = write!(h, "<table><caption>{}</caption>", esc(caption));
+fn kv_table(h: &mut String, caption: Option<&str>, rows: &[(&str, String)]) {
+    h.push_str("<table>");
+    if let Some(c) = caption {
+        let _ = write!(h, "<caption>{}</caption>", esc(c));
+    }
     for (k, v) in rows {
         let _ = write!(h, "<tr><td>{}</td><td>{}</td></tr>", esc(k), esc(v));
     }
@@ -406,12 +409,12 @@ fn details(h: &mut String, page: &PageView) {
         if let Some(f) = m.setpoints_file {
             rows.push(("setpoints written", f.to_string()));
         }
-        kv_table(h, m.name, &rows);
+        kv_table(h, None, &rows);
     }
     let l = page.limits;
     kv_table(
         h,
-        "Limits used",
+        Some("Limits used"),
         &[
             ("tolerance (mm)", page.tol.to_string()),
             ("feed (mm/s)", l.feed_mm_s.to_string()),

@@ -4,7 +4,7 @@
 //! corner-deviation histogram; and the trigonometric spline's shape families and a loop
 //! corner (Tao et al. 2013, Figs. 1 and 2/8).
 
-use super::series::{path_points, view_axes, ACC, FEED, JERK};
+use super::series::{path_points, vertex_points, view_axes, ACC, FEED, JERK};
 use super::svg::{Mark, Plot, Style};
 use super::{MethodView, PageView};
 use ncsmooth::geom::{ParamCurve, Vec3};
@@ -38,6 +38,8 @@ const HIST_BINS: usize = 20;
 const TYPICAL_MIN_TURN_DEG: f64 = 1.0;
 /// Samples of each trigonometric-spline figure curve.
 const FIGURE_SAMPLES: usize = 200;
+/// Deviations below this share of the tolerance get no inset.
+const NEGLIGIBLE_DEVIATION_SHARE: f64 = 1e-3;
 /// Bottom of the logarithmic curvature axis (1/mm): a radius of 10 m; straight lines are
 /// drawn there.
 const CURVATURE_FLOOR_PER_MM: f64 = 1e-4;
@@ -179,7 +181,8 @@ fn worst_point<'a>(page: &'a PageView) -> Option<(&'a str, Vec3)> {
             };
             (m.name, at, d.max_mm())
         })
-        .filter(|x| x.2.is_finite() && x.2 > 0.0)
+        // A path that follows the program to rounding has no worst corner to show.
+        .filter(|x| x.2.is_finite() && x.2 > page.tol * NEGLIGIBLE_DEVIATION_SHARE)
         .max_by(|a, b| a.2.total_cmp(&b.2))
         .map(|(n, at, _)| (n, at))
 }
@@ -235,7 +238,7 @@ fn inset(page: &PageView, id: &str, title: &str, w: [f64; 4], axes: [usize; 2]) 
         label: Some("program".into()),
     });
     p.marks.push(Mark::Dots {
-        pts: prog.into_iter().filter(|q| q[0].is_finite()).collect(),
+        pts: vertex_points(page.program, MoveKind::Feed, axes, wider),
         r: 2.5,
         color: "#000".into(),
         label: None,
@@ -472,7 +475,8 @@ fn trig_group() -> Group {
             _ => None,
         });
         if let Some(pts) = c {
-            let e = span(&pts);
+            // The loop's extent, with a margin, around the corner.
+            let e = span(&pts) * 1.15;
             p.x_range = Some([-e, e]);
             p.y_range = Some([-e, e]);
         }

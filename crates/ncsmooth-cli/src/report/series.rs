@@ -274,6 +274,25 @@ pub fn path_points(
     out
 }
 
+/// The programmed vertices (start and end of every move of `kind`) of `tp` in `axes` that
+/// lie inside `window` (`[xmin, xmax, ymin, ymax]`).
+pub fn vertex_points(
+    tp: &Toolpath,
+    kind: MoveKind,
+    axes: [usize; 2],
+    window: [f64; 4],
+) -> Vec<[f64; 2]> {
+    let inside = |p: &[f64; 2]| {
+        p[0] >= window[0] && p[0] <= window[1] && p[1] >= window[2] && p[1] <= window[3]
+    };
+    tp.moves()
+        .filter(|m| m.kind == kind)
+        .flat_map(|m| [m.segment.start(), m.segment.end()])
+        .map(|p| [p[axes[0]], p[axes[1]]])
+        .filter(inside)
+        .collect()
+}
+
 /// Curvature (1/mm) along the arc length (mm) of the feed moves of `tp`, as a decimated
 /// series: lines are zero, curves sampled at least [`MIN_CURVE_SAMPLES`] times (more on
 /// long curves, about `max_points` over the whole length); rapids are skipped and do not
