@@ -14,14 +14,18 @@
 
 use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
-use crate::{io, load, Ui};
+use crate::report::series::PlotSink;
+use crate::report::{self, MethodView, PageView, PlotData};
+use crate::{io, load, progress, Ui};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
-use ncsmooth::interp::{execute, InterpMethod, InterpOptions, PlanError, PlanReport};
+use ncsmooth::interp::{
+    execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointWriter,
+};
 use ncsmooth::path::{Move, MoveKind, Toolpath};
-use ncsmooth::smooth::{smooth, SmoothOptions, SmoothReport};
+use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -143,6 +147,10 @@ pub struct PlanArgs {
     /// JSON report file.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// HTML page of the plan (the page of `compare` for this one method: table, path with
+    /// the tolerance band, curvature, feed, per-axis acceleration and jerk).
+    #[arg(long, value_name = "FILE")]
+    pub report_html: Option<PathBuf>,
     /// Also write the planned path sampled every --sample-ds mm of arc length (CSV
     /// s,x,y,z in mm; for external comparisons such as scripts/toppra_compare.py).
     #[arg(long)]
@@ -171,7 +179,8 @@ pub struct PlanRunReport {
     pub end_to_end_real_time_factor: f64,
 }
 
-fn axes(name: &str, s: &str) -> Result<[f64; 3]> {
+/// Parses a per-axis value: one number for all axes or `x,y,z`.
+pub(crate) fn axes(name: &str, s: &str) -> Result<[f64; 3]> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
@@ -254,6 +263,30 @@ fn newlines(bytes: &[u8]) -> u64 {
         .sum()
 }
 
+/// Refuses a `--period` outside [`MIN_PERIOD_S`] ..= [`MAX_PERIOD_S`] (bad input).
+pub(crate) fn check_period(period: f64) -> Result<()> {
+    if !(MIN_PERIOD_S..=MAX_PERIOD_S).contains(&period) {
+        return Err(io::BadInput(format!(
+            "--period {period:?} s is outside {MIN_PERIOD_S:?} ..= {MAX_PERIOD_S:?} s (the \
+             interpolation period is in seconds: 1 ms is 0.001)"
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// The smoothing `plan --method M --tol T` plans: the curves built to the whole tolerance
+/// (setpoints are printed to 1e-9 mm: no flattening or rounding budget), shared with
+/// `compare` so both plan the same path.
+pub(crate) fn smooth_for_plan(tp: &Toolpath, method: Method, tol: f64) -> Result<Smoothed> {
+    let sopts = SmoothOptions {
+        method,
+        tol_mm: tol,
+        ..Default::default()
+    };
+    Ok(smooth(tp, &sopts).map_err(|e| io::BadInput(e.to_string()))?)
+}
+
 /// Marks the write error of [`RowLimit`].
 #[derive(Debug)]
 struct RowLimitExceeded;
@@ -298,20 +331,22 @@ impl<W: Write> Write for RowLimit<W> {
     }
 }
 
-/// Plans and interpolates into `out` under the row limit; passing the limit is bad input.
+/// Plans and interpolates into `out` (CSV) and `plots` (when given) under the row limit;
+/// passing the limit is bad input.
 fn execute_limited<W: Write + Send>(
     tp: &Toolpath,
     popts: &PlanOptions,
     iopts: &InterpOptions,
     out: W,
     max_rows: Option<u64>,
-) -> Result<(PlanReport, W)> {
+    plots: Option<PlotSink>,
+) -> Result<(PlanReport, W, Option<PlotSink>)> {
     let out = RowLimit {
         inner: out,
         lines_left: max_rows.map(lines_allowed),
     };
-    match execute(tp, popts, iopts, out) {
-        Ok((report, w)) => Ok((report, w.inner)),
+    match execute_into(tp, popts, iopts, (SetpointWriter::new(out), plots)) {
+        Ok((report, (w, plots))) => Ok((report, w.into_inner()?.inner, plots)),
         Err(PlanError::Io(e))
             if e.get_ref()
                 .is_some_and(|e| e.downcast_ref::<RowLimitExceeded>().is_some()) =>
@@ -343,7 +378,7 @@ fn waivers(a: &PlanArgs, r: &PlanReport) -> Vec<&'static str> {
 }
 
 /// The limits the measured setpoints exceed, or `None` when `r.limits_held`.
-fn broken_limits(r: &PlanReport) -> Option<String> {
+pub(crate) fn broken_limits(r: &PlanReport) -> Option<String> {
     if r.limits_held {
         return None;
     }
@@ -371,26 +406,52 @@ fn broken_limits(r: &PlanReport) -> Option<String> {
     Some(out.join(", "))
 }
 
+/// The page of one plan ([`crate::report`]).
+fn page_html(
+    run: &PlanRunReport,
+    name: &str,
+    tol: f64,
+    popts: &PlanOptions,
+    program: &Toolpath,
+    planned: Toolpath,
+    plots: PlotSink,
+) -> String {
+    let data = PlotData::measure(program, planned, plots, tol);
+    let page = PageView {
+        title: format!("ncsmooth plan: {name}, {}", run.method),
+        input: name,
+        tol,
+        limits: popts,
+        program,
+        source: None,
+        methods: vec![MethodView {
+            name: &run.method,
+            plan: run,
+            gcode: None,
+            speedup: None,
+            compute_s: run.plan.stage_time_s.total_s + run.smooth_s + run.parse_s,
+            data: &data,
+            setpoints_file: None,
+        }],
+        notes: Vec::new(),
+    };
+    report::render_page(&page).0
+}
+
 /// Runs `plan`.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let outputs: Vec<(&str, &Path)> = [
         ("--path-samples", &a.path_samples),
         ("--setpoints", &a.setpoints),
         ("--report", &a.report),
+        ("--report-html", &a.report_html),
     ]
     .into_iter()
     .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
     .collect();
     let input = (a.file != BUILTIN_BUTTERFLY).then_some(a.file.as_str());
     io::check_outputs(input, &outputs)?;
-    if !(MIN_PERIOD_S..=MAX_PERIOD_S).contains(&a.period) {
-        return Err(io::BadInput(format!(
-            "--period {:?} s is outside {MIN_PERIOD_S:?} ..= {MAX_PERIOD_S:?} s (the \
-             interpolation period is in seconds: 1 ms is 0.001)",
-            a.period
-        ))
-        .into());
-    }
+    check_period(a.period)?;
     let t0 = Instant::now();
     let (toolpath, name) = if a.file == BUILTIN_BUTTERFLY {
         (builtin_butterfly(), a.file.clone())
@@ -412,6 +473,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let mut samples_out = open(&a.path_samples)?;
     let setpoints_out = open(&a.setpoints)?;
     let mut report_out = open(&a.report)?;
+    let mut html_out = open(&a.report_html)?;
     let popts = PlanOptions {
         feed_mm_s: a.feed,
         rapid_mm_s: a.rapid,
@@ -440,13 +502,10 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         arc_correction: !a.no_arc_correction,
     };
     let t1 = Instant::now();
-    let sopts = SmoothOptions {
-        method: a.method.into(),
-        tol_mm: a.tol,
-        ..Default::default()
-    };
-    let smoothed = smooth(&toolpath, &sopts).map_err(|e| io::BadInput(e.to_string()))?;
-    drop(toolpath);
+    let method: Method = a.method.into();
+    let smoothed = smooth_for_plan(&toolpath, method, a.tol)?;
+    // The program is kept only for the page (its path and the tolerance band).
+    let program = a.report_html.is_some().then_some(toolpath);
     let smooth_s = t1.elapsed().as_secs_f64();
     if let Some(out) = &mut samples_out {
         if a.sample_ds.is_nan() || a.sample_ds <= 0.0 {
@@ -484,22 +543,30 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     }
     let tp = &smoothed.toolpath;
     let max = a.max_rows;
-    let (report, setpoints_out) = match (setpoints_out, &a.setpoints) {
+    let plots = program.is_some().then(PlotSink::default);
+    let pb = progress::spinner(ui, "planning and interpolating");
+    let (report, setpoints_out, plots) = match (setpoints_out, &a.setpoints) {
         (Some(f), _) => {
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, f);
-            let (rep, w) = execute_limited(tp, &popts, &iopts, w, max)?;
-            (rep, Some(w.into_inner().map_err(|e| e.into_error())?))
+            let (rep, w, plots) = execute_limited(tp, &popts, &iopts, w, max, plots)?;
+            (
+                rep,
+                Some(w.into_inner().map_err(|e| e.into_error())?),
+                plots,
+            )
         }
         (None, Some(_)) => {
             // Unlocked: the setpoints are written from the planner's second thread.
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, std::io::stdout());
-            (execute_limited(tp, &popts, &iopts, w, max)?.0, None)
+            let (rep, _, plots) = execute_limited(tp, &popts, &iopts, w, max, plots)?;
+            (rep, None, plots)
         }
-        (None, None) => (
-            execute_limited(tp, &popts, &iopts, std::io::sink(), max)?.0,
-            None,
-        ),
+        (None, None) => {
+            let (rep, _, plots) = execute_limited(tp, &popts, &iopts, std::io::sink(), max, plots)?;
+            (rep, None, plots)
+        }
     };
+    pb.finish_and_clear();
     let waived = waivers(&a, &report);
     if let Some(broken) = broken_limits(&report) {
         if waived.is_empty() {
@@ -513,7 +580,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let total = t0.elapsed().as_secs_f64();
     let run = PlanRunReport {
         input: name.clone(),
-        method: sopts.method.name().to_string(),
+        method: method.name().to_string(),
         smoothing: smoothed.report,
         parse_s,
         smooth_s,
@@ -526,8 +593,22 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => io::print_stdout(json.as_bytes())?,
         (None, None) => {}
     }
+    if let (Some(f), Some(program), Some(plots)) = (&mut html_out, &program, plots) {
+        let pb = progress::spinner(ui, "measuring the path for the page");
+        let html = page_html(
+            &run,
+            &name,
+            a.tol,
+            &popts,
+            program,
+            smoothed.toolpath,
+            plots,
+        );
+        pb.finish_and_clear();
+        f.write_all(html.as_bytes())?;
+    }
     io::commit_all(
-        [samples_out, setpoints_out, report_out]
+        [samples_out, setpoints_out, report_out, html_out]
             .into_iter()
             .flatten(),
     )?;
@@ -569,6 +650,7 @@ mod tests {
     use super::*;
     use clap::Parser;
     use ncsmooth::geom::Vec3;
+    use ncsmooth::interp::execute;
 
     #[derive(Parser)]
     struct Cli {

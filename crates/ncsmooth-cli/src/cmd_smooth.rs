@@ -184,8 +184,6 @@ pub struct SmoothOutcome {
     pub gcode: Vec<u8>,
     /// Report.
     pub report: SmoothRunReport,
-    /// The smoothed path before flattening (what a controller with curve support runs).
-    pub smoothed: ncsmooth::Toolpath,
 }
 
 /// Smooths, flattens, writes and verifies a parsed program (shared with the demo).
@@ -307,11 +305,7 @@ pub fn smooth_program(
         input_continuity: input_cont,
         timings: t,
     };
-    Ok(SmoothOutcome {
-        gcode,
-        report,
-        smoothed: smoothed.toolpath,
-    })
+    Ok(SmoothOutcome { gcode, report })
 }
 
 /// Writes several outputs all or nothing: every file is opened (and its directory checked)

@@ -1,16 +1,13 @@
 //! The demo (`ncsmooth` with no arguments): the built-in butterfly profile (a published
-//! NURBS compiled into the binary) sampled into 1000 micro-lines, inspected, smoothed with
-//! every method, verified, and written with a JSON report into `--out` (default
+//! NURBS compiled into the binary) sampled into 1000 micro-lines, then `compare` on it
+//! (tol 0.01 mm, 50 mm/s, 500 mm/s^2, jerk 5000 mm/s^3, 1 ms): every method smoothed,
+//! verified and planned; the table on the terminal; the page `index.html`, `compare.json`,
+//! the plots, the program, each method's G-code and setpoints in `--out` (default
 //! `ncsmooth-demo/`).
 
-use crate::cmd_smooth::smooth_program;
-use crate::{cmd_inspect, io, Ui};
+use crate::{cmd_compare, cmd_inspect, io, Ui};
 use anyhow::Result;
 use clap::Args;
-use ncsmooth::feed::PlanOptions;
-use ncsmooth::interp::{execute, InterpOptions};
-use ncsmooth::smooth::Method;
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// Segments of the sampled butterfly.
@@ -55,137 +52,50 @@ pub fn demo_gcode() -> String {
     s
 }
 
-#[derive(Serialize)]
-struct MethodResult {
-    method: &'static str,
-    output: String,
-    deviation_output_to_program_mm: f64,
-    deviation_vertex_to_output_mm: f64,
-    within_tol: bool,
-    corners_smoothed: usize,
-    g2_joints: usize,
-    g1_joints: usize,
-    g0_joints: usize,
-    seconds: f64,
-    setpoints: String,
-    plan: PlanSummary,
-}
+/// Demo limits: feed (mm/s), acceleration (mm/s^2), jerk (mm/s^3), period (s).
+const DEMO_FEED_MM_S: f64 = 50.0;
+const DEMO_ACC_MM_S2: &str = "500";
+const DEMO_JERK_MM_S3: &str = "5000";
+const DEMO_PERIOD_S: f64 = 0.001;
 
-/// Planning figures of one method in the demo.
-#[derive(Serialize)]
-struct PlanSummary {
-    cycle_time_s: f64,
-    setpoints: usize,
-    eta_max: f64,
-    limits_held: bool,
-    max_fd_acc_mm_s2: f64,
-    max_fd_acc_ratio: f64,
-    real_time_factor: f64,
-}
-
-#[derive(Serialize)]
-struct DemoReport {
-    tol_mm: f64,
-    input: cmd_inspect::InspectReport,
-    methods: Vec<MethodResult>,
-}
-
-/// Methods the demo runs.
-const DEMO_METHODS: [Method; 5] = [
-    Method::None,
-    Method::Bspline,
-    Method::Arc,
-    Method::Nurbs,
-    Method::Trig,
-];
-
-/// Runs the demo.
+/// Runs the demo: `compare` on the sampled butterfly, with the setpoints.
 pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
     std::fs::create_dir_all(&a.out)
         .map_err(|e| io::BadInput(format!("cannot create {}: {e}", a.out.display())))?;
+    let t0 = std::time::Instant::now();
     let src = demo_gcode();
     let program = ncsmooth_gcode::parse_str(
         &src,
         "butterfly_1000.ngc",
         &ncsmooth_gcode::ParseOptions::default(),
     )?;
+    let parse_s = t0.elapsed().as_secs_f64();
     let inspect = cmd_inspect::report("butterfly_1000.ngc (built in)", &program);
     ui.status(cmd_inspect::render_text(&inspect));
     io::write_atomic(&a.out.join("butterfly_1000.ngc"), src.as_bytes())?;
-    let mut methods = Vec::new();
-    for m in DEMO_METHODS {
-        let t0 = std::time::Instant::now();
-        let out = smooth_program(
-            "butterfly_1000.ngc",
-            src.as_bytes(),
-            &program,
-            ncsmooth::smooth::SmoothOptions {
-                method: m,
-                ..Default::default()
-            },
-            a.tol,
-            None,
-            4,
-        )?;
-        let file = format!("butterfly_{}.ngc", m.name());
-        io::write_atomic(&a.out.join(&file), &out.gcode)?;
-        // Plan the smoothed path (curves as they are) with the default machine limits.
-        let (plan, csv) = execute(
-            &out.smoothed,
-            &PlanOptions::default(),
-            &InterpOptions::default(),
-            Vec::new(),
-        )?;
-        let setpoints = format!("butterfly_{}.csv", m.name());
-        io::write_atomic(&a.out.join(&setpoints), &csv)?;
-        let plan = PlanSummary {
-            cycle_time_s: plan.cycle_time_s,
-            setpoints: plan.setpoints,
-            eta_max: plan.interp.eta_max,
-            limits_held: plan.limits_held,
-            max_fd_acc_mm_s2: plan
-                .axes
-                .iter()
-                .map(|ax| ax.a_max_mm_s2)
-                .fold(0.0, f64::max),
-            max_fd_acc_ratio: plan.axes.iter().map(|ax| ax.a_ratio).fold(0.0, f64::max),
-            real_time_factor: plan.real_time_factor,
-        };
-        let r = &out.report;
-        ui.status(format!(
-            "{:>8}: deviation {:.6} / {:.6} mm (tol {}), {} corners smoothed, joints G2 {} G1 {} G0 {}; cycle {:.3} s at 50 mm/s, 500 mm/s^2",
-            m.name(),
-            r.deviation.output_to_programmed_mm,
-            r.deviation.vertex_to_output_mm,
-            a.tol,
-            r.smoothing.corners_smoothed,
-            r.continuity.g2,
-            r.continuity.g1,
-            r.continuity.g0,
-            plan.cycle_time_s
-        ));
-        methods.push(MethodResult {
-            method: m.name(),
-            output: file,
-            deviation_output_to_program_mm: r.deviation.output_to_programmed_mm,
-            deviation_vertex_to_output_mm: r.deviation.vertex_to_output_mm,
-            within_tol: r.within_tol,
-            corners_smoothed: r.smoothing.corners_smoothed,
-            g2_joints: r.continuity.g2,
-            g1_joints: r.continuity.g1,
-            g0_joints: r.continuity.g0,
-            seconds: t0.elapsed().as_secs_f64(),
-            setpoints,
-            plan,
-        });
-    }
-    let report = DemoReport {
-        tol_mm: a.tol,
-        input: inspect,
-        methods,
+    let popts = cmd_compare::limits(
+        DEMO_FEED_MM_S,
+        DEMO_ACC_MM_S2,
+        Some(DEMO_JERK_MM_S3),
+        DEMO_PERIOD_S,
+    )?;
+    let job = cmd_compare::Job {
+        name: "butterfly_1000.ngc",
+        src: src.as_bytes(),
+        program: &program,
+        parse_s,
+        tol: a.tol,
+        popts,
+        out: &a.out,
+        stem: "butterfly".into(),
+        setpoints: true,
+        embed_source: true,
     };
-    let path = a.out.join("report.json");
-    io::write_atomic(&path, serde_json::to_string_pretty(&report)?.as_bytes())?;
-    ui.status(format!("demo report written to {}", path.display()));
+    let outcome = cmd_compare::compare(&job, ui)?;
+    cmd_compare::finish(&outcome, ui)?;
+    // The page's path, always (also with --quiet): it is what the demo is for.
+    if ui.quiet {
+        println!("{}", outcome.page.display());
+    }
     Ok(())
 }

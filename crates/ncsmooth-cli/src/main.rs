@@ -7,12 +7,15 @@
 //! in mm, speeds in mm/s, accelerations in mm/s^2, jerks in mm/s^3, times in s.
 #![forbid(unsafe_code)]
 
+mod cmd_compare;
 mod cmd_inspect;
 mod cmd_plan;
 mod cmd_smooth;
 mod demo;
 mod diag;
 mod io;
+mod progress;
+mod report;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -41,6 +44,9 @@ enum Cmd {
     /// Plan the feed under per-axis limits and write setpoints at a fixed period (CSV:
     /// t s, x y z mm, feed mm/s), with a JSON report measured on the written rows.
     Plan(cmd_plan::PlanArgs),
+    /// Run every method on one program under the same limits: a table, `compare.json` and
+    /// an HTML page with plots (`index.html`) in `--out`.
+    Compare(cmd_compare::CompareArgs),
     /// Run the demo on the built-in butterfly profile and write its report (the default).
     Demo(demo::DemoArgs),
 }
@@ -48,7 +54,7 @@ enum Cmd {
 /// Output verbosity shared by the subcommands.
 #[derive(Clone, Copy, Debug)]
 pub struct Ui {
-    /// Suppress progress and summaries.
+    /// Suppress progress bars and summaries.
     pub quiet: bool,
 }
 
@@ -67,6 +73,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Cmd::Inspect(a)) => cmd_inspect::run(a, ui),
         Some(Cmd::Smooth(a)) => cmd_smooth::run(a, ui),
         Some(Cmd::Plan(a)) => cmd_plan::run(a, ui),
+        Some(Cmd::Compare(a)) => cmd_compare::run(a, ui),
         Some(Cmd::Demo(a)) => demo::run(a, ui),
         None => demo::run(demo::DemoArgs::default(), ui),
     }

@@ -157,19 +157,175 @@ fn smooth_none_round_trips_the_program() {
 }
 
 #[test]
-fn demo_writes_its_report() {
+fn demo_writes_its_page_report_gcode_and_setpoints() {
     let d = tmpdir("demo");
     let o = bin().current_dir(&d).arg("--quiet").output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Quiet: the page's path alone on stdout, nothing on stderr (no progress bar).
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "ncsmooth-demo/index.html"
+    );
+    assert!(
+        o.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let dir = d.join("ncsmooth-demo");
     let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("ncsmooth-demo/report.json")).unwrap())
-            .unwrap();
-    assert_eq!(r["input"]["moves_by_code"]["g1"], 1000);
-    assert!(r["methods"]
-        .as_array()
-        .unwrap()
+        serde_json::from_slice(&std::fs::read(dir.join("compare.json")).unwrap()).unwrap();
+    assert_eq!(r["program"]["moves_by_code"]["g1"], 1000);
+    assert_eq!(r["limits"]["jerk_mm_s3"][0], 5000.0);
+    let methods = r["methods"].as_array().unwrap();
+    assert_eq!(methods.len(), 5);
+    for m in methods {
+        let name = m["method"].as_str().unwrap();
+        assert!(m["failure"].is_null(), "{name}: {}", m["failure"]);
+        assert_eq!(m["gcode"]["report"]["within_tol"], true, "{name}");
+        assert_eq!(m["plan"]["plan"]["limits_held"], true, "{name}");
+        assert!(
+            m["path_deviation"]["output_to_programmed_mm"]
+                .as_f64()
+                .unwrap()
+                <= 0.01
+        );
+        for f in [&m["gcode"]["file"], &m["setpoints"]] {
+            assert!(dir.join(f.as_str().unwrap()).is_file(), "{name}: {f}");
+        }
+    }
+    assert_eq!(methods[0]["speedup_vs_none"], 1.0);
+    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    assert!(page.contains("<table id=\"summary\">"));
+    assert_eq!(r["page_bytes"].as_u64().unwrap() as usize, page.len());
+    assert!(dir.join("plots/path.svg").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A square with a rounded corner and a few micro-lines: quick to compare.
+const SMALL_PROGRAM: &[u8] = b"G21 G90 G17\nG0 X0 Y0\nG1 X10 Y0 F1200\nG1 X10.3 Y0.05\n\
+G1 X10.6 Y0.15\nG1 X10.9 Y0.3\nG3 X12.9 Y2.3 I0 J2\nG1 X12.9 Y10\nG1 X0 Y10\nG1 X0 Y0\nM2\n";
+
+#[test]
+fn compare_writes_one_table_a_json_a_page_and_each_method_s_gcode() {
+    let d = tmpdir("compare");
+    let f = write(&d, "small.ngc", SMALL_PROGRAM);
+    let out = d.join("out");
+    let o = run(&[
+        "compare",
+        f.to_str().unwrap(),
+        "--tol",
+        "0.02",
+        "--jerk",
+        "20000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = String::from_utf8_lossy(&o.stdout);
+    for m in [
+        "none", "bspline", "arc", "nurbs", "trig", "speed-up", "cycle s",
+    ] {
+        assert!(table.contains(m), "{m} missing from\n{table}");
+    }
+    // stderr is not a terminal here: no progress bar drawn (no carriage return, no escape).
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains('\r') && !err.contains('\u{1b}'), "{err}");
+    assert!(err.contains("index.html"), "{err}");
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("compare.json")).unwrap()).unwrap();
+    let methods = r["methods"].as_array().unwrap();
+    let names: Vec<&str> = methods
         .iter()
-        .all(|m| m["within_tol"] == true));
+        .map(|m| m["method"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["none", "bspline", "arc", "nurbs", "trig"]);
+    for m in methods {
+        assert!(out.join(m["gcode"]["file"].as_str().unwrap()).is_file());
+        assert!(m["setpoints"].is_null(), "no --setpoints: none written");
+        let speedup = m["speedup_vs_none"].as_f64().unwrap();
+        let none = methods[0]["plan"]["plan"]["cycle_time_s"].as_f64().unwrap();
+        let own = m["plan"]["plan"]["cycle_time_s"].as_f64().unwrap();
+        assert!((speedup - none / own).abs() < 1e-12);
+    }
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    // Self-contained: no script, nothing fetched.
+    for banned in ["<script", "http://", "https://"] {
+        let outside_svg_ns = page.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
+        assert!(!outside_svg_ns.contains(banned), "{banned}");
+    }
+    for id in [
+        "path",
+        "feed",
+        "curvature-bspline",
+        "acceleration-none",
+        "jerk-trig",
+        "corner-deviation",
+        "trig-loop",
+    ] {
+        assert!(page.contains(&format!("id=\"{id}\"")), "plot {id} missing");
+        assert!(out.join(format!("plots/{id}.svg")).is_file());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn compare_refuses_bad_input_and_writes_nothing() {
+    let d = tmpdir("compare-bad");
+    let f = write(&d, "bad.ngc", b"G21\nG1 X1 Y\n");
+    let out = d.join("out");
+    let o = run(&[
+        "compare",
+        f.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(":2:7:"));
+    assert!(!out.join("index.html").exists());
+    let good = write(&d, "good.ngc", SMALL_PROGRAM);
+    for bad in [["--period", "5"], ["--acc", "1,2"], ["--jerk", "-1"]] {
+        let o = run(&[
+            "compare",
+            good.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            bad[0],
+            bad[1],
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}");
+        assert!(!out.join("index.html").exists(), "{bad:?}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn plan_writes_the_page_of_one_method() {
+    let d = tmpdir("plan-html");
+    let f = write(&d, "small.ngc", SMALL_PROGRAM);
+    let page = d.join("plan.html");
+    let rep = d.join("plan.json");
+    let o = run(&[
+        "plan",
+        f.to_str().unwrap(),
+        "--method",
+        "nurbs",
+        "--tol",
+        "0.02",
+        "--report",
+        rep.to_str().unwrap(),
+        "--report-html",
+        page.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("<table id=\"summary\">") && html.contains("<td>nurbs</td>"));
+    assert!(html.contains("id=\"path\"") && html.contains("id=\"acceleration-nurbs\""));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    let cycle = format!("{:.3}", r["plan"]["cycle_time_s"].as_f64().unwrap());
+    assert!(
+        html.contains(&format!("<td>{cycle}</td>")),
+        "cycle {cycle} in the table"
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -64,9 +64,16 @@
 
 mod run;
 mod setpoints;
+mod sink;
 
-pub use run::{execute, AxisReport, ExtraAxisReport, PlanError, PlanReport, StageTimes};
-pub use setpoints::{ExtraFdMeter, FdMeter, FdStats, Setpoint, SetpointWriter};
+pub use run::{
+    execute, execute_into, AxisReport, ExtraAxisReport, PlanError, PlanReport, StageTimes,
+};
+pub use setpoints::{
+    printed, ExtraFdMeter, FdMeter, FdStats, Jump, Setpoint, SetpointWriter, FEED_DECIMALS,
+    POSITION_DECIMALS,
+};
+pub use sink::{FnSink, Measured, NullSink, PrintedRow, SetpointSink};
 
 use crate::feed::PathIndex;
 use crate::geom::{

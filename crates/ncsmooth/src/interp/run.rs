@@ -1,7 +1,9 @@
 //! The planning-and-interpolation run: index the path, stream the planned profile
 //! ([`crate::feed::plan_stream`]) through the sampler (one sample per period `T`, at
-//! `t = n T`), the [`Interpolator`] and the [`SetpointWriter`], and report what was
-//! measured. Nothing is collected: memory is bounded by the planner's window.
+//! `t = n T`), the [`Interpolator`] and into a [`SetpointSink`] (the CSV
+//! [`SetpointWriter`] for [`execute`]) through the measuring adapter [`Measured`], and
+//! report what was measured. Nothing is collected (unless the sink collects): memory is
+//! bounded by the planner's window.
 //!
 //! A pipeline of threads ([`std::thread::scope`]): the calling thread indexes and plans and
 //! takes the samples (the planner computes the grid of the moves ahead on a thread of its
@@ -23,6 +25,7 @@
 //! column is the filtered speed.
 
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
+use super::sink::{Measured, SetpointSink};
 use super::{InterpOptions, InterpStats, Interpolator};
 use crate::feed::grid::ExtraRest;
 use crate::feed::{
@@ -407,8 +410,8 @@ impl<'i, 'p, 'a> Emitter<'i, 'p, 'a> {
 /// The writing thread: formats, measures and writes the setpoints it receives until the
 /// emitter hangs up or a write fails (then it hangs up, which stops the emitter). Returns
 /// the first error and the time spent.
-fn write_setpoints<W: Write>(
-    writer: &mut SetpointWriter<W>,
+fn write_setpoints<S: SetpointSink>(
+    writer: &mut Measured<S>,
     rx: std::sync::mpsc::Receiver<Vec<Setpoint>>,
 ) -> (Option<io::Error>, f64) {
     let mut write_s = 0.0;
@@ -425,19 +428,52 @@ fn write_setpoints<W: Write>(
 }
 
 /// Plans `path` under `popts`, interpolates it with `iopts` and writes the setpoints to
-/// `out` (use `std::io::sink()` to only measure). Returns the report and the writer.
+/// `out` as CSV ([`SetpointWriter`]; use [`execute_into`] with a
+/// [`super::NullSink`] to only measure). Returns the report and the writer.
 pub fn execute<W: Write + Send>(
     path: &Toolpath,
     popts: &PlanOptions,
     iopts: &InterpOptions,
     out: W,
 ) -> Result<(PlanReport, W), PlanError> {
+    let (report, writer) = execute_into(path, popts, iopts, SetpointWriter::new(out))?;
+    Ok((report, writer.into_inner().map_err(PlanError::Io)?))
+}
+
+/// Plans `path` under `popts`, interpolates it with `iopts` and hands the setpoints to
+/// `sink` (see [`SetpointSink`]; the report is measured on the rows as printed, whichever
+/// the sink). Returns the report and the sink, finished.
+///
+/// ```
+/// use ncsmooth::feed::PlanOptions;
+/// use ncsmooth::geom::Vec3;
+/// use ncsmooth::interp::{execute_into, InterpOptions, Setpoint};
+/// use ncsmooth::path::Toolpath;
+///
+/// let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)], None);
+/// let (report, rows) = execute_into(
+///     &tp,
+///     &PlanOptions::default(),
+///     &InterpOptions::default(),
+///     Vec::<Setpoint>::new(),
+/// )
+/// .unwrap();
+/// assert_eq!(rows.len(), report.setpoints);
+/// assert_eq!(rows.last().unwrap().p, Vec3::new(10.0, 0.0, 0.0));
+/// ```
+pub fn execute_into<S: SetpointSink + Send>(
+    path: &Toolpath,
+    popts: &PlanOptions,
+    iopts: &InterpOptions,
+    sink: S,
+) -> Result<(PlanReport, S), PlanError> {
     popts.validate().map_err(PlanError::Options)?;
     let clock = Instant::now();
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
     let period = popts.period_s;
-    let mut writer = SetpointWriter::new(out, index.extra_axes_mask).map_err(PlanError::Io)?;
+    let mut writer = Measured::new(sink);
+    writer.begin(index.extra_axes_mask).map_err(PlanError::Io)?;
     let (out_tx, out_rx) = std::sync::mpsc::sync_channel(EMIT_QUEUE_BATCHES);
     let mut emitter = Emitter {
         interp: Interpolator::new(&index, *iopts),
@@ -491,7 +527,8 @@ pub fn execute<W: Write + Send>(
     let last = writer.last;
     let first = writer.first;
     let jumps = std::mem::take(&mut writer.jumps);
-    let out = writer.finish().map_err(PlanError::Io)?;
+    writer.finish().map_err(PlanError::Io)?;
+    let out = writer.inner;
     let total_s = clock.elapsed().as_secs_f64();
     let acc_noise = 2e-9 / (period * period);
     let jerk_noise = 4e-9 / (period * period * period);

@@ -4,6 +4,7 @@
 //! as printed** (each printed number is parsed back), with the actual time column (so a
 //! non-uniform step is measured correctly).
 
+use super::sink::{PrintedRow, SetpointSink};
 use crate::decimal::POW10_U64;
 use crate::geom::Vec3;
 use crate::path::{ExtraAxes, EXTRA_AXIS_NAMES};
@@ -174,23 +175,15 @@ impl ExtraFdMeter {
     }
 }
 
-/// Writes setpoint rows as CSV and measures them.
+/// The CSV [`SetpointSink`]: writes the header (`t,x,y,z,feed` and one column per extra
+/// axis, from [`SetpointSink::begin`]) and one row per setpoint, positions and time to 9
+/// decimals, feed to 6. It only formats: what the rows measure is the business of
+/// [`super::Measured`], which formats nothing and sees the same printed values
+/// ([`printed`]).
 pub struct SetpointWriter<W: Write> {
     out: W,
     extra_cols: Vec<usize>,
     line: Vec<u8>,
-    /// Finite differences of the printed rows.
-    pub fd: FdMeter,
-    /// Finite differences of the printed extra-axis columns.
-    pub extra_fd: ExtraFdMeter,
-    /// Rows written.
-    pub rows: usize,
-    /// Last row as printed: time and position.
-    pub last: Option<(f64, [f64; 3])>,
-    /// First row as printed.
-    pub first: Option<(f64, [f64; 3])>,
-    /// Jumps between rows, in order.
-    pub jumps: Vec<Jump>,
 }
 
 /// Largest magnitude printed through the integer fast path of [`put`] (units of 1e-9).
@@ -285,81 +278,90 @@ fn put(line: &mut Vec<u8>, v: f64, decimals: usize) -> f64 {
     i as f64 / scale
 }
 
+/// Decimals of the printed positions, times and extra-axis values.
+pub const POSITION_DECIMALS: usize = 9;
+/// Decimals of the printed feed.
+pub const FEED_DECIMALS: usize = 6;
+
+/// The value [`SetpointWriter`] prints for `v` at `decimals` (at most 9) decimals, as a
+/// double: what reading the CSV back gives, without formatting it (the same rounding as
+/// the writer's own, checked by the tests on every precision).
+#[inline]
+pub fn printed(v: f64, decimals: usize) -> f64 {
+    let scale = POW10_U64[decimals] as f64;
+    let x = v * scale;
+    if x.is_nan() || x.abs() >= FAST_LIMIT {
+        return format!("{v:.decimals$}").parse().unwrap_or(f64::NAN);
+    }
+    let i = round_half_away(x);
+    if i == 0 {
+        return 0.0;
+    }
+    i as f64 / scale
+}
+
 impl<W: Write> SetpointWriter<W> {
-    /// A writer; writes the header now. `extra_axes_mask` selects the extra columns
-    /// ([`EXTRA_AXIS_NAMES`], written in lower case).
-    pub fn new(mut out: W, extra_axes_mask: u8) -> io::Result<Self> {
-        let extra_cols: Vec<usize> = (0..EXTRA_AXIS_NAMES.len())
+    /// A writer into `out`; the header is written by [`SetpointSink::begin`].
+    pub fn new(out: W) -> Self {
+        SetpointWriter {
+            out,
+            extra_cols: Vec::new(),
+            line: Vec::with_capacity(128),
+        }
+    }
+    /// Flushes and returns the output.
+    pub fn into_inner(mut self) -> io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+impl<W: Write> SetpointSink for SetpointWriter<W> {
+    /// Writes the header: `t,x,y,z,feed`, then the extra columns `extra_axes_mask` selects
+    /// ([`EXTRA_AXIS_NAMES`], in lower case).
+    fn begin(&mut self, extra_axes_mask: u8) -> io::Result<()> {
+        self.extra_cols = (0..EXTRA_AXIS_NAMES.len())
             .filter(|i| extra_axes_mask & (1 << i) != 0)
             .collect();
         let mut header = String::from("t,x,y,z,feed");
-        for &i in &extra_cols {
+        for &i in &self.extra_cols {
             header.push(',');
             header.push(EXTRA_AXIS_NAMES[i].to_ascii_lowercase());
         }
         header.push('\n');
-        out.write_all(header.as_bytes())?;
-        Ok(SetpointWriter {
-            out,
-            extra_cols,
-            line: Vec::with_capacity(128),
-            fd: FdMeter::default(),
-            extra_fd: ExtraFdMeter::default(),
-            rows: 0,
-            last: None,
-            first: None,
-            jumps: Vec::new(),
-        })
+        self.out.write_all(header.as_bytes())
     }
     /// Writes one row.
-    pub fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
+    #[inline]
+    fn push(&mut self, sp: &Setpoint) -> io::Result<()> {
+        self.push_printed(sp).map(|_| ())
+    }
+    /// Writes one row and returns its time and position as printed.
+    #[inline]
+    fn push_printed(&mut self, sp: &Setpoint) -> io::Result<Option<PrintedRow>> {
         self.line.clear();
-        let t = put(&mut self.line, sp.t, 9);
+        let t = put(&mut self.line, sp.t, POSITION_DECIMALS);
         let mut x = [0.0; 3];
         for i in 0..3 {
             self.line.push(b',');
-            x[i] = put(&mut self.line, sp.p[i], 9);
+            x[i] = put(&mut self.line, sp.p[i], POSITION_DECIMALS);
         }
         self.line.push(b',');
-        put(&mut self.line, sp.feed, 6);
-        let mut e = [0.0; 7];
+        put(&mut self.line, sp.feed, FEED_DECIMALS);
         for &i in &self.extra_cols {
             self.line.push(b',');
-            e[i] = put(&mut self.line, sp.extra.map_or(0.0, |e| e[i]), 9);
-        }
-        if sp.jump {
-            self.fd.restart();
-            self.extra_fd.restart();
-            if let Some((_, from)) = self.last {
-                let d = ((x[0] - from[0]).powi(2)
-                    + (x[1] - from[1]).powi(2)
-                    + (x[2] - from[2]).powi(2))
-                .sqrt();
-                self.jumps.push(Jump {
-                    t_s: t,
-                    from,
-                    to: x,
-                    distance_mm: d,
-                });
-            }
-        }
-        if !self.extra_cols.is_empty() {
-            self.extra_fd.push(sp.t, e);
+            put(
+                &mut self.line,
+                sp.extra.map_or(0.0, |e| e[i]),
+                POSITION_DECIMALS,
+            );
         }
         self.line.push(b'\n');
         self.out.write_all(&self.line)?;
-        self.fd.push(t, x);
-        self.rows += 1;
-        if self.first.is_none() {
-            self.first = Some((t, x));
-        }
-        self.last = Some((t, x));
-        Ok(())
+        Ok(Some((t, x)))
     }
-    /// Flushes and returns the sink.
-    pub fn finish(mut self) -> io::Result<W> {
-        self.out.flush()?;
-        Ok(self.out)
+    fn finish(&mut self) -> io::Result<()> {
+        self.out.flush()
     }
 }
 
@@ -455,6 +457,7 @@ mod tests {
                 "{v}: {a} vs {b}"
             );
             assert_eq!(got, parsed, "{v}: {a}");
+            assert_eq!(printed(v, 9).to_bits(), got.to_bits(), "{v}");
         }
     }
 
@@ -485,13 +488,16 @@ mod tests {
                     assert_eq!(a, b, "{v} at {decimals}");
                 }
                 assert_eq!(got, a.parse::<f64>().unwrap(), "{v} at {decimals}: {a}");
+                // The measuring adapter's rounding is the writer's.
+                assert_eq!(printed(v, decimals).to_bits(), got.to_bits(), "{v}");
             }
         }
     }
 
     #[test]
     fn csv_rows_and_extra_columns() {
-        let mut w = SetpointWriter::new(Vec::new(), 1 << 6).unwrap();
+        let mut w = SetpointWriter::new(Vec::new());
+        w.begin(1 << 6).unwrap();
         w.push(&Setpoint {
             jump: false,
             t: 0.0,
@@ -500,7 +506,7 @@ mod tests {
             extra: Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]),
         })
         .unwrap();
-        let s = String::from_utf8(w.finish().unwrap()).unwrap();
+        let s = String::from_utf8(w.into_inner().unwrap()).unwrap();
         assert_eq!(
             s,
             "t,x,y,z,feed,e\n0.000000000,1.000000000,2.000000000,3.000000000,0.000000,0.500000000\n"

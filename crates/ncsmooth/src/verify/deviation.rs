@@ -88,7 +88,58 @@ pub fn deviation_segments(
     programmed: &[(&Segment, u32)],
     accuracy: f64,
 ) -> Deviation {
-    measure(output, programmed, accuracy).0
+    measure(output, programmed, accuracy, None).0
+}
+
+/// Calls `f(vertex, line, distance)` for every programmed vertex (the start, then the end
+/// of every segment, tagged with its line) with its distance to the primitives of `out`.
+fn for_each_vertex_distance(
+    out: &Bvh,
+    programmed: &[(&Segment, u32)],
+    mut f: impl FnMut(Vec3, u32, f64),
+) {
+    let mut q = Query::new(out);
+    if let Some((first, line)) = programmed.first() {
+        let p = first.start();
+        f(p, *line, q.dist(p));
+    }
+    for (s, line) in programmed {
+        let p = s.end();
+        f(p, *line, q.dist(p));
+    }
+}
+
+/// [`deviation`], and the distance (mm) from every programmed vertex (the start, then the
+/// end of every move, rapids included) to the output path, in program order, within
+/// `accuracy`: the per-vertex figures whose largest is [`Deviation::vertex_to_output_mm`]
+/// (side (b)), for histograms of the corner deviation, at the cost of [`deviation`] alone.
+/// The distances are empty when either path has no move.
+///
+/// ```
+/// use ncsmooth::geom::Vec3;
+/// use ncsmooth::path::Toolpath;
+/// use ncsmooth::verify::deviation_with_vertex_distances;
+///
+/// let square = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)];
+/// let program = Toolpath::from_polyline(&square, None);
+/// // The corner (1, 0) cut by a line from (0.9, 0) to (1, 1).
+/// let cut = Toolpath::from_polyline(&[square[0], Vec3::new(0.9, 0.0, 0.0), square[2]], None);
+/// let (dev, d) = deviation_with_vertex_distances(&cut, &program, 1e-9);
+/// assert_eq!(d.len(), 3);
+/// assert!(d[0].abs() < 1e-9 && d[2].abs() < 1e-9);
+/// assert!((d[1] - 0.1 / 1.01f64.sqrt()).abs() < 1e-9);
+/// assert_eq!(dev.vertex_to_output_mm, d[1]);
+/// ```
+pub fn deviation_with_vertex_distances(
+    output: &Toolpath,
+    programmed: &Toolpath,
+    accuracy: f64,
+) -> (Deviation, Vec<f64>) {
+    let out: Vec<(&Segment, u32)> = output.moves().map(|m| (&m.segment, m.line)).collect();
+    let prog: Vec<(&Segment, u32)> = programmed.moves().map(|m| (&m.segment, m.line)).collect();
+    let mut distances = Vec::new();
+    let (dev, _) = measure(&out, &prog, accuracy, Some(&mut distances));
+    (dev, distances)
 }
 
 /// [`deviation_segments`], and the number of nearest-distance queries (a) made (the work
@@ -97,6 +148,7 @@ fn measure(
     output: &[(&Segment, u32)],
     programmed: &[(&Segment, u32)],
     accuracy: f64,
+    mut vertex_distances: Option<&mut Vec<f64>>,
 ) -> (Deviation, usize) {
     let accuracy = if accuracy > 0.0 && accuracy.is_finite() {
         accuracy
@@ -140,19 +192,16 @@ fn measure(
     } else {
         Bvh::new(out_prims.clone())
     };
-    let mut q = Query::new(&out_bvh);
-    let vertex = |p: Vec3, line: u32, dev: &mut Deviation, q: &mut Query| {
-        let d = q.dist(p);
+    for_each_vertex_distance(&out_bvh, programmed, |p, line, d| {
+        if let Some(v) = vertex_distances.as_deref_mut() {
+            v.push(d);
+        }
         if d > dev.vertex_to_output_mm {
             dev.vertex_to_output_mm = d;
             dev.vertex_at = p;
             dev.vertex_line = line;
         }
-    };
-    vertex(programmed[0].0.start(), programmed[0].1, &mut dev, &mut q);
-    for (s, line) in programmed {
-        vertex(s.end(), *line, &mut dev, &mut q);
-    }
+    });
 
     // (a) output points to the programmed path.
     let prog_bvh = Bvh::new(prog_prims);
@@ -510,7 +559,7 @@ mod tests {
                 a => a.clone(),
             })
             .collect();
-        let (d, queries) = measure(&tag(&arcs), &tag(&prog), acc);
+        let (d, queries) = measure(&tag(&arcs), &tag(&prog), acc, None);
         let brute = brute_output_to_programmed(&arcs, &prog, 2000);
         assert!(brute > 5e-5 && brute < 1e-3, "{brute}");
         assert!(
@@ -527,7 +576,7 @@ mod tests {
             arcs.len()
         );
         // The chords of the first spiral are bounded in closed form too.
-        let (_, queries) = measure(&tag(&out), &tag(&prog), acc);
+        let (_, queries) = measure(&tag(&out), &tag(&prog), acc, None);
         assert!(
             queries < 100 * out.len(),
             "{queries} queries for {} pieces",

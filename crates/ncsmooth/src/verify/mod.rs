@@ -13,4 +13,4 @@ pub use continuity::{
     continuity, continuity_joints, joint, Continuity, Joint, JointClass, CURVATURE_ABS_TOL,
     CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,
 };
-pub use deviation::{deviation, deviation_segments, Deviation};
+pub use deviation::{deviation, deviation_segments, deviation_with_vertex_distances, Deviation};
