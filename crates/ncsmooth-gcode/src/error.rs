@@ -34,6 +34,12 @@ pub enum ParseErrorKind {
     /// The source is not valid UTF-8.
     #[error("invalid UTF-8")]
     InvalidUtf8,
+    /// A streamed file could not be read.
+    #[error("reading the file: {why}")]
+    Io {
+        /// The system's message.
+        why: String,
+    },
     /// A word letter with no value after it (`G1 X1 Y`).
     #[error("missing value after '{letter}'")]
     MissingValue {
@@ -235,6 +241,26 @@ pub(crate) fn locate(src: &[u8], range: Range<usize>) -> (u32, u32, Range<usize>
 }
 
 impl ParseError {
+    /// Builds an error located at `range` of line index `k`, whose text `line` starts at
+    /// offset `start` of the source.
+    pub(crate) fn in_line(
+        file: &str,
+        line: &[u8],
+        k: usize,
+        start: usize,
+        range: Range<usize>,
+        kind: ParseErrorKind,
+    ) -> Self {
+        let (line, column, byte_range) = crate::interp::text::locate_in_line(line, k, start, range);
+        ParseError {
+            file: file.to_string(),
+            line,
+            column,
+            byte_range,
+            kind,
+        }
+    }
+
     /// Builds an error located at `range` of `src`.
     pub(crate) fn at(file: &str, src: &[u8], range: Range<usize>, kind: ParseErrorKind) -> Self {
         let (line, column, byte_range) = locate(src, range);

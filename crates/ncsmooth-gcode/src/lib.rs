@@ -25,7 +25,10 @@ pub mod interp;
 pub mod lexer;
 pub mod rewrite;
 pub mod source;
+pub mod stream;
 pub mod writer;
+
+pub use stream::BlockReader;
 
 pub use canon::Canon;
 pub use error::{ParseError, ParseErrorKind, Warning};
@@ -119,7 +122,7 @@ pub struct Program {
 
 /// Parses G-code text. `file_name` is only used in error messages.
 pub fn parse_str(src: &str, file_name: &str, opts: &ParseOptions) -> Result<Program, ParseError> {
-    interp::Interp::new(src, file_name, opts).run()
+    interp::Interp::new(interp::text::Text::Whole(src), file_name, opts).run()
 }
 
 /// Parses G-code bytes. Text in comments is never interpreted, so bytes that are not UTF-8
@@ -155,7 +158,7 @@ pub fn parse_bytes(
 
 /// A copy of `src` with every non-ASCII byte inside a `( )` or `;` comment replaced by
 /// `?` (one byte for one byte, so offsets are unchanged).
-fn non_ascii_comments_replaced(src: &[u8]) -> Vec<u8> {
+pub(crate) fn non_ascii_comments_replaced(src: &[u8]) -> Vec<u8> {
     let mut out = src.to_vec();
     let (mut paren, mut semicolon) = (false, false);
     for b in out.iter_mut() {

@@ -67,7 +67,7 @@ impl Interp<'_> {
         let Some((s, e)) = self.lb.comment else {
             return Ok(());
         };
-        let raw = &self.src[s..e];
+        let raw = &self.raw[s - self.raw_start..e - self.raw_start];
         let text = raw.trim_start();
         let (kind, skip) = classify(text);
         let body = &text[skip..];

@@ -64,12 +64,11 @@ impl Interp<'_> {
         if b.get(3).is_some_and(|c| c.is_ascii_digit() || *c == b'.') {
             return None;
         }
-        let line_start = self.lines[self.pc].0;
         let comment_first = self
             .lb
             .map
             .get(at)
-            .is_some_and(|&m| self.src.as_bytes()[line_start..m].contains(&b'('));
+            .is_some_and(|&m| self.raw.as_bytes()[..m - self.raw_start].contains(&b'('));
         (!comment_first).then_some(statement)
     }
 
@@ -122,6 +121,7 @@ impl Interp<'_> {
             }
         };
         let return_line = if again { self.pc } else { self.pc + 1 };
+        self.remember_return_lines();
         self.enter_call(name, CallKind::M98, return_line)?;
         self.store.enter_shared();
         self.next_pc = line + 1;

@@ -42,6 +42,7 @@ pub mod motion;
 pub(crate) mod oword;
 pub(crate) mod params;
 pub(crate) mod splines;
+pub(crate) mod text;
 
 use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind, Warning};
@@ -55,17 +56,34 @@ use block::{Code, N_SLOTS};
 use frames::{Frames, N_AXES};
 use modal::Modal;
 use ncsmooth::path::{Block, Event, EventKind, Toolpath, Units};
+use std::collections::HashMap;
+use text::{Scan, Text, TextError};
 
 /// Millimetres per inch.
 pub(crate) const MM_PER_INCH: f64 = 25.4;
 
 /// The interpreter.
 pub(crate) struct Interp<'a> {
-    pub(crate) src: &'a str,
+    /// The program text, whole or streamed ([`text`]).
+    pub(crate) text: Text<'a>,
     pub(crate) file: &'a str,
     pub(crate) opts: &'a ParseOptions,
-    /// Byte ranges of the physical lines (without line breaks).
-    pub(crate) lines: Vec<(usize, usize)>,
+    /// What the first pass over the text learned: lines, O-word lines, the closing `%`.
+    pub(crate) scan: Scan,
+    /// Offsets of lines a call returns to (the call's line and the next one): with the
+    /// O-word lines of `scan`, every place a jump can land.
+    pub(crate) returns: HashMap<usize, usize>,
+    /// The current line's text, and its byte range in the source.
+    pub(crate) raw: String,
+    pub(crate) raw_start: usize,
+    pub(crate) raw_end: usize,
+    /// Offset of the line `pc` (before it is read).
+    pub(crate) pc_offset: usize,
+    /// Lines executed at least once, a bit per line.
+    pub(crate) executed: Vec<u64>,
+    /// Every move is pinned (a streamed main program ended by `M99`, known from a first
+    /// run: see [`crate::BlockReader`]).
+    pub(crate) pin_everything: bool,
     /// Index of the line being executed.
     pub(crate) pc: usize,
     /// Index of the next line to execute (set by control flow).
@@ -103,6 +121,8 @@ pub(crate) struct Interp<'a> {
     pub(crate) present: u32,
     /// Bit `i` set when the word of slot `i` was read.
     pub(crate) used: u32,
+    /// Blocks already handed out of `tp.blocks` by a [`crate::BlockReader`].
+    pub(crate) drained: usize,
     /// Index in `tp.blocks` where the current line's output starts.
     pub(crate) line_first_block: usize,
     /// The current line emitted an event.
@@ -114,23 +134,24 @@ pub(crate) struct Interp<'a> {
     pub(crate) line_modal_motion: bool,
 }
 
-/// Position of the first `\n`.
-#[inline]
-fn memchr_newline(b: &[u8]) -> Option<usize> {
-    b.iter().position(|&c| c == b'\n')
-}
-
 impl<'a> Interp<'a> {
-    pub(crate) fn new(src: &'a str, file: &'a str, opts: &'a ParseOptions) -> Self {
+    pub(crate) fn new(text: Text<'a>, file: &'a str, opts: &'a ParseOptions) -> Self {
         let f = match &opts.machine {
             Some(m) => Frames::known(m),
             None => Frames::unknown(),
         };
         Interp {
-            src,
+            text,
             file,
             opts,
-            lines: Vec::new(),
+            scan: Scan::default(),
+            returns: HashMap::new(),
+            raw: String::with_capacity(256),
+            raw_start: 0,
+            raw_end: 0,
+            pc_offset: 0,
+            executed: Vec::new(),
+            pin_everything: false,
             pc: 0,
             next_pc: 0,
             m: Modal::default(),
@@ -155,6 +176,7 @@ impl<'a> Interp<'a> {
             letters: [None; N_SLOTS],
             present: 0,
             used: 0,
+            drained: 0,
             line_first_block: 0,
             line_events: false,
             line_pinned: false,
@@ -162,47 +184,20 @@ impl<'a> Interp<'a> {
         }
     }
 
+    /// Runs a program held whole and returns it with its source map.
     pub(crate) fn run(mut self) -> Result<Program, ParseError> {
-        let bytes = self.src.as_bytes();
-        self.stats.bytes = bytes.len();
-        let mut start = 0;
-        while start < bytes.len() {
-            let end = memchr_newline(&bytes[start..]).map_or(bytes.len(), |p| start + p);
-            self.lines.push((start, end));
-            start = end + 1;
-        }
-        self.stats.lines = self.lines.len();
+        let Text::Whole(src) = self.text else {
+            unreachable!("run() reads a whole program; BlockReader streams a file")
+        };
+        self.stats.bytes = src.len();
+        let mut lines = Vec::new();
+        self.begin(Some(&mut lines))?;
+        self.map.lines = lines;
         // One block per line at most, give or take: reserve up front instead of growing
         // (and copying) a vector of 200-byte blocks many times.
-        self.tp.blocks.reserve(self.lines.len() + 1);
-        self.map.lines = self
-            .lines
-            .iter()
-            .map(|&(start, end)| LineInfo {
-                start,
-                end,
-                ..Default::default()
-            })
-            .collect();
-        while self.pc < self.lines.len() && !self.ended {
-            self.next_pc = self.pc + 1;
-            self.exec_line()?;
-            self.pc = self.next_pc;
-        }
-        self.flow.check_closed(&self)?;
-        if self.main_m99 {
-            self.pin_all();
-        }
-        if let Some(&u) = self.stats.units_seen.first() {
-            self.tp.units = u;
-        }
-        let start = self
-            .tp
-            .moves()
-            .next()
-            .map(|m| ncsmooth::geom::ParamCurve::start(&m.segment))
-            .unwrap_or_default();
-        self.tp.start = start;
+        self.tp.blocks.reserve(self.scan.n_lines + 1);
+        while self.step()? {}
+        self.finish()?;
         Ok(Program {
             toolpath: self.tp,
             stats: self.stats,
@@ -211,13 +206,166 @@ impl<'a> Interp<'a> {
         })
     }
 
+    /// The first pass over the text ([`text::scan`]).
+    /// `lines` receives every line's range when given (the source map of a whole program).
+    pub(crate) fn begin(&mut self, lines: Option<&mut Vec<LineInfo>>) -> Result<(), ParseError> {
+        self.scan = text::scan(&mut self.text, self.file, lines).map_err(|e| self.text_err(e))?;
+        self.stats.lines = self.scan.n_lines;
+        self.executed = vec![0; self.scan.n_lines.div_ceil(64)];
+        Ok(())
+    }
+
+    /// Executes the next line; false when the program has ended or the text is done.
+    pub(crate) fn step(&mut self) -> Result<bool, ParseError> {
+        if self.pc >= self.scan.n_lines || self.ended {
+            return Ok(false);
+        }
+        let end = match (&self.text, self.map.lines.get(self.pc)) {
+            // A whole program with its source map: the line's range is known.
+            (Text::Whole(src), Some(info)) => {
+                self.raw.clear();
+                self.raw.push_str(&src[info.start..info.end]);
+                info.end
+            }
+            _ => {
+                let read = self
+                    .text
+                    .line_at(self.pc_offset, self.pc, &mut self.raw, self.file)
+                    .map_err(|e| self.text_err(e))?;
+                let Some(end) = read else {
+                    return Ok(false);
+                };
+                end
+            }
+        };
+        self.raw_start = self.pc_offset;
+        self.raw_end = end;
+        self.next_pc = self.pc + 1;
+        self.exec_line()?;
+        self.pc_offset = self.offset_of(self.next_pc);
+        self.pc = self.next_pc;
+        Ok(true)
+    }
+
+    /// After the last line: open blocks are errors; the toolpath's start and units.
+    pub(crate) fn finish(&mut self) -> Result<(), ParseError> {
+        self.flow.check_closed(self)?;
+        if self.main_m99 {
+            self.pin_all();
+        }
+        if let Some(&u) = self.stats.units_seen.first() {
+            self.tp.units = u;
+        }
+        let first = self
+            .tp
+            .moves()
+            .next()
+            .map(|m| ncsmooth::geom::ParamCurve::start(&m.segment));
+        if let Some(start) = first {
+            self.tp.start = start;
+        }
+        Ok(())
+    }
+
+    /// Offset of line `k`, the next one to run: the line after the current one, an O-word
+    /// line or the line after one, or a line a call returns to.
+    fn offset_of(&self, k: usize) -> usize {
+        if k == self.pc + 1 {
+            return self.raw_end + 1;
+        }
+        if let Some(o) = self.oline_at(k) {
+            return o.start;
+        }
+        if let Some(o) = k.checked_sub(1).and_then(|j| self.oline_at(j)) {
+            return o.next;
+        }
+        match self.returns.get(&k) {
+            Some(&off) => off,
+            None => unreachable!("a jump to line {k}, which is no O-word line nor a return"),
+        }
+    }
+
+    /// The O-word line of index `k`, if it is one.
+    pub(crate) fn oline_at(&self, k: usize) -> Option<&text::OLineAt> {
+        let o = &self.scan.olines;
+        o.binary_search_by_key(&k, |o| o.line).ok().map(|i| &o[i])
+    }
+
+    /// Byte range of line `k`: the current line or an O-word line.
+    pub(crate) fn line_range(&self, k: usize) -> (usize, usize) {
+        if k == self.pc {
+            return (self.raw_start, self.raw_end);
+        }
+        self.oline_at(k)
+            .map_or((self.raw_start, self.raw_end), |o| (o.start, o.end))
+    }
+
+    /// Records the lines a call on the current line returns to.
+    pub(crate) fn remember_return_lines(&mut self) {
+        self.returns.insert(self.pc, self.raw_start);
+        self.returns.insert(self.pc + 1, self.raw_end + 1);
+    }
+
+    fn text_err(&self, e: TextError) -> ParseError {
+        match e {
+            TextError::Parse(e) => *e,
+            TextError::Io(e) => ParseError::in_line(
+                self.file,
+                b"",
+                self.pc,
+                self.pc_offset,
+                self.pc_offset..self.pc_offset,
+                ParseErrorKind::Io { why: e.to_string() },
+            ),
+        }
+    }
+
+    /// An error at source bytes `range`: in the current line, or in an O-word line.
+    fn error_at(&self, range: std::ops::Range<usize>, kind: ParseErrorKind) -> ParseError {
+        if (self.raw_start..=self.raw_end).contains(&range.start) {
+            return ParseError::in_line(
+                self.file,
+                self.raw.as_bytes(),
+                self.pc,
+                self.raw_start,
+                range,
+                kind,
+            );
+        }
+        if let Text::Whole(src) = &self.text {
+            return ParseError::at(self.file, src.as_bytes(), range, kind);
+        }
+        match self
+            .scan
+            .olines
+            .iter()
+            .find(|o| (o.start..=o.end).contains(&range.start))
+        {
+            Some(o) => {
+                ParseError::in_line(self.file, o.raw.as_bytes(), o.line, o.start, range, kind)
+            }
+            None => {
+                let sc = &self.scan;
+                let last = sc.n_lines.saturating_sub(1);
+                ParseError::in_line(
+                    self.file,
+                    sc.last_text.as_bytes(),
+                    last,
+                    sc.last_line.0,
+                    range,
+                    kind,
+                )
+            }
+        }
+    }
+
     pub(crate) fn lex_err(&self, e: LexError) -> ParseError {
-        ParseError::at(self.file, self.src.as_bytes(), e.start..e.end, e.kind)
+        self.error_at(e.start..e.end, e.kind)
     }
 
     pub(crate) fn err_word(&self, w: usize, kind: ParseErrorKind) -> ParseError {
         match self.words.get(w) {
-            Some(w) => ParseError::at(self.file, self.src.as_bytes(), w.start..w.end, kind),
+            Some(w) => self.error_at(w.start..w.end, kind),
             None => self.err_line(kind),
         }
     }
@@ -225,17 +373,14 @@ impl<'a> Interp<'a> {
     pub(crate) fn err_line(&self, kind: ParseErrorKind) -> ParseError {
         let (s, e) = match (self.words.first(), self.words.last()) {
             (Some(a), Some(b)) => (a.start, b.end),
-            _ => {
-                let (s, e) = self.lines.get(self.pc).copied().unwrap_or((0, 0));
-                (s, e)
-            }
+            _ => (self.raw_start, self.raw_end),
         };
-        ParseError::at(self.file, self.src.as_bytes(), s..e, kind)
+        self.error_at(s..e, kind)
     }
 
     /// An error spanning source bytes `range`.
     pub(crate) fn err_at(&self, range: std::ops::Range<usize>, kind: ParseErrorKind) -> ParseError {
-        ParseError::at(self.file, self.src.as_bytes(), range, kind)
+        self.error_at(range, kind)
     }
 
     pub(crate) fn warn(&mut self, message: impl Into<String>) {
@@ -262,14 +407,13 @@ impl<'a> Interp<'a> {
 
     /// Executes line `self.pc`.
     fn exec_line(&mut self) -> Result<(), ParseError> {
-        let (start, end) = self.lines[self.pc];
         self.line_no = u32::try_from(self.pc + 1).unwrap_or(u32::MAX);
-        let line = &self.src.as_bytes()[start..end];
-        compact_line(line, start, &mut self.lb).map_err(|e| self.lex_err(e))?;
+        compact_line(self.raw.as_bytes(), self.raw_start, &mut self.lb)
+            .map_err(|e| self.lex_err(e))?;
         self.line_first_block = self.tp.blocks.len();
         self.line_events = false;
         self.line_modal_motion = false;
-        self.line_pinned = self.nested() || self.lb.block_delete;
+        self.line_pinned = self.nested() || self.lb.block_delete || self.pin_everything;
         self.words.clear();
         self.assigns.clear();
         // The block's sorted words too: a line without words must not see the last ones.
@@ -278,10 +422,15 @@ impl<'a> Interp<'a> {
         self.letters = [None; N_SLOTS];
         self.present = 0;
         self.used = 0;
-        let first_time = !self.map.lines[self.pc].has(flags::EXECUTED);
-        self.map.lines[self.pc].flags |= flags::EXECUTED;
+        let (word, bit) = (self.pc / 64, 1u64 << (self.pc % 64));
+        let first_time = self.executed[word] & bit == 0;
+        self.executed[word] |= bit;
         if first_time {
-            self.map.lines[self.pc].before = self.write_state();
+            let before = self.write_state();
+            if let Some(info) = self.map.lines.get_mut(self.pc) {
+                info.flags |= flags::EXECUTED;
+                info.before = before;
+            }
         }
         if self.lb.percent {
             // A `%` line: the first one opens the program, the next one ends it.
@@ -295,14 +444,14 @@ impl<'a> Interp<'a> {
         let body = oword::skip_line_number(&self.lb.bytes);
         if self.lb.bytes.get(body) == Some(&b'O') {
             // O-word statements run no comment (LinuxCNC).
-            self.map.lines[self.pc].flags |= flags::OWORD;
+            self.mark_line(flags::OWORD);
             self.pin_last_move();
             return self.o_statement(body);
         }
         if self.lb.bytes.get(body) == Some(&b'M') {
             if let Some(statement) = self.fanuc_statement_at(body) {
                 // Like O-word statements, M98 and a returning M99 run no comment.
-                self.map.lines[self.pc].flags |= flags::OWORD;
+                self.mark_line(flags::OWORD);
                 self.pin_last_move();
                 return self.fanuc_statement(statement, body);
             }
@@ -353,9 +502,16 @@ impl<'a> Interp<'a> {
         (r, end)
     }
 
+    /// Sets flag `f` of the current line in the source map (when one is kept).
+    pub(crate) fn mark_line(&mut self, f: u8) {
+        if let Some(info) = self.map.lines.get_mut(self.pc) {
+            info.flags |= f;
+        }
+    }
+
     /// Whether any line before this one did something (for the opening-`%` rule).
     fn has_executed_content(&self) -> bool {
-        !self.tp.blocks.is_empty()
+        self.drained > 0 || !self.tp.blocks.is_empty()
     }
 
     /// Applies the line's parameter assignments (after the line, as NGC says).
@@ -396,6 +552,16 @@ impl<'a> Interp<'a> {
             let lb = &self.lb;
             lb.paren_comments == 0 && lb.semicolon.is_none() && self.only_motion_words()
         };
+        if !replaceable {
+            for b in &mut self.tp.blocks[self.line_first_block..] {
+                if let Block::Move(mv) = b {
+                    mv.pinned = true;
+                }
+            }
+        }
+        if self.map.lines.is_empty() {
+            return;
+        }
         let state = self.write_state();
         let info = &mut self.map.lines[self.pc];
         if self.line_modal_motion {
@@ -406,12 +572,6 @@ impl<'a> Interp<'a> {
         }
         if replaceable {
             info.flags |= flags::REPLACEABLE;
-        } else {
-            for b in &mut self.tp.blocks[self.line_first_block..] {
-                if let Block::Move(mv) = b {
-                    mv.pinned = true;
-                }
-            }
         }
         if first_time {
             info.state = state;

@@ -312,8 +312,7 @@ impl Interp<'_> {
 
     /// A motion ncsmooth cannot place: kept as an event (written as programmed).
     pub(crate) fn untracked(&mut self, why: &str) {
-        let (s, e) = self.lines[self.pc];
-        let mut text = self.src[s..e].trim().to_string();
+        let mut text = self.raw.trim().to_string();
         if text.is_empty() {
             text = why.to_string();
         }

@@ -23,7 +23,7 @@
 use super::Interp;
 use crate::error::{ParseError, ParseErrorKind};
 use crate::expr::read_real_value;
-use crate::lexer::{compact_line, Cursor, LineBuf};
+use crate::lexer::Cursor;
 use std::collections::HashMap;
 
 /// Deepest subroutine nesting (LinuxCNC allows 10 in its standard build; deeper nesting is
@@ -144,7 +144,7 @@ impl Flow {
             return Ok(());
         }
         if let Some(f) = self.blocks.last() {
-            let (s, e) = it.lines[f.start];
+            let (s, e) = it.line_range(f.start);
             return Err(it.err_at(
                 s..e,
                 ParseErrorKind::ControlFlow {
@@ -154,7 +154,7 @@ impl Flow {
         }
         if let Some(c) = self.calls.last() {
             return Err(it.err_at(
-                it.lines.last().map_or(0..0, |&(s, e)| s..e),
+                it.scan.last_line.0..it.scan.last_line.1,
                 ParseErrorKind::ControlFlow {
                     why: format!("the file ends inside subroutine o{}", name_text(&c.name)),
                 },
@@ -266,55 +266,26 @@ fn read_name_at(b: &[u8], mut i: usize) -> Option<(Box<[u8]>, usize)> {
 }
 
 impl Interp<'_> {
-    /// Every O-line of the program up to a closing `%` (built once).
+    /// Every O-line of the program up to a closing `%` (built once, from the O-word lines
+    /// the first pass found).
     fn o_index(&mut self) -> &[OLine] {
         if self.flow.index.is_none() {
-            let mut lb = LineBuf::default();
-            let mut v = Vec::new();
-            let end = self.closing_percent_line().unwrap_or(self.lines.len());
-            for (k, &(s, e)) in self.lines[..end].iter().enumerate() {
-                let line = &self.src.as_bytes()[s..e];
-                if !line.iter().any(|&c| c == b'o' || c == b'O') {
-                    continue;
-                }
-                if compact_line(line, s, &mut lb).is_err() {
-                    continue;
-                }
-                let at = skip_line_number(&lb.bytes);
-                if lb.bytes.get(at) != Some(&b'O') {
-                    continue;
-                }
-                if let Some((name, kw, _)) = read_header(&lb.bytes, at) {
-                    v.push(OLine { line: k, name, kw });
-                }
-            }
+            let v = self
+                .scan
+                .olines
+                .iter()
+                .filter_map(|o| {
+                    let at = skip_line_number(&o.compact);
+                    read_header(&o.compact, at).map(|(name, kw, _)| OLine {
+                        line: o.line,
+                        name,
+                        kw,
+                    })
+                })
+                .collect();
             self.flow.index = Some(v);
         }
         self.flow.index.as_deref().unwrap_or(&[])
-    }
-
-    /// The line of the `%` that ends the program text, if any: the second `%` line when the
-    /// first non-blank line is `%` (LinuxCNC's rule), else the first `%` line.
-    fn closing_percent_line(&self) -> Option<usize> {
-        let first_byte = |&(s, e): &(usize, usize)| {
-            self.src.as_bytes()[s..e]
-                .iter()
-                .copied()
-                .find(|c| !c.is_ascii_whitespace())
-        };
-        let mut percents = self
-            .lines
-            .iter()
-            .enumerate()
-            .filter(|(_, l)| first_byte(l) == Some(b'%'))
-            .map(|(k, _)| k);
-        let first = percents.next()?;
-        let opens = self.lines[..first].iter().all(|l| first_byte(l).is_none());
-        if opens {
-            percents.next()
-        } else {
-            Some(first)
-        }
     }
 
     /// The first O-line after line `from` with `name` and one of `kws`.
@@ -326,7 +297,7 @@ impl Interp<'_> {
     }
 
     pub(crate) fn flow_err(&self, why: String) -> ParseError {
-        let (s, e) = self.lines[self.pc];
+        let (s, e) = (self.raw_start, self.raw_end);
         self.err_at(s..e, ParseErrorKind::ControlFlow { why })
     }
 
@@ -373,7 +344,7 @@ impl Interp<'_> {
             )));
         };
         if v.is_nan() {
-            let (s, e) = self.lines[self.pc];
+            let (s, e) = (self.raw_start, self.raw_end);
             return Err(self.err_at(
                 s..e,
                 ParseErrorKind::UnknownValue {
@@ -403,7 +374,7 @@ impl Interp<'_> {
             read_header(&self.lb.bytes, at)
         };
         let Some((name, kw, after)) = header else {
-            let (s, e) = self.lines[self.pc];
+            let (s, e) = (self.raw_start, self.raw_end);
             return Err(self.err_at(
                 s..e,
                 ParseErrorKind::ControlFlow {
@@ -434,7 +405,7 @@ impl Interp<'_> {
             Kw::Repeat => {
                 let n = args.first().copied().unwrap_or(f64::NAN);
                 if n.is_nan() {
-                    let (s, e) = self.lines[pc];
+                    let (s, e) = self.line_range(pc);
                     return Err(self.err_at(
                         s..e,
                         ParseErrorKind::UnknownValue {
@@ -535,7 +506,7 @@ impl Interp<'_> {
             .find(|o| o.line > pc && o.line < end && matches!(o.kw, Kw::Sub | Kw::Bare))
             .map(|o| (o.line, o.name.clone()));
         if let Some((line, inner)) = nested {
-            let (s, e) = self.lines[line];
+            let (s, e) = self.line_range(line);
             return Err(self.err_at(
                 s..e,
                 ParseErrorKind::ControlFlow {
@@ -580,7 +551,7 @@ impl Interp<'_> {
                 pos,
             )),
             Ok((v, _)) => {
-                let (s, e) = self.lines[self.pc];
+                let (s, e) = (self.raw_start, self.raw_end);
                 Err(self.err_at(
                     s..e,
                     ParseErrorKind::ControlFlow {
@@ -724,6 +695,7 @@ impl Interp<'_> {
                 )))
             }
         };
+        self.remember_return_lines();
         self.enter_call(name, CallKind::OWord, self.pc + 1)?;
         self.store.enter(args);
         self.next_pc = sub + 1;
