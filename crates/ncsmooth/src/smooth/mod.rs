@@ -35,10 +35,11 @@ pub mod arc_joint;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
 pub mod screen;
+pub mod stream;
 pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
-use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
+use crate::path::{ExtraAxes, Move, MoveKind, Toolpath};
 use crate::verify::TANGENT_TOL_DEG;
 use serde::Serialize;
 
@@ -344,12 +345,11 @@ pub fn passthrough(chain: &Chain<'_>) -> Vec<Move> {
 
 /// Smooths a whole program. Fails only on invalid options.
 pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsError> {
-    opts.validate()?;
-    let mut report = SmoothReport {
-        method: opts.method,
-        tol_mm: opts.tol_mm,
-        ..Default::default()
+    // A stream whose windows never cut a chain.
+    let whole = stream::StreamOptions {
+        window_moves: usize::MAX,
     };
+    let mut s = stream::StreamSmoother::new(opts.clone(), whole)?;
     // Corner methods replace one move by up to three (trimmed line, two curve pieces).
     let growth = if opts.method == Method::None {
         1
@@ -362,59 +362,21 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
         units: tp.units,
         extra_axes_mask: tp.extra_axes_mask,
     };
-    let mut run: Vec<Move> = Vec::new();
-    let mut last_extra: Option<ExtraAxes> = None;
-    let mut run_start_extra: Option<ExtraAxes> = None;
-    let flush = |run: &mut Vec<Move>,
-                 start_extra: Option<ExtraAxes>,
-                 out: &mut Toolpath,
-                 report: &mut SmoothReport| {
-        if run.is_empty() {
-            return;
-        }
-        let chain = Chain {
-            moves: run,
-            start_extra,
-        };
-        report.chains += 1;
-        let moves = smooth_chain(&chain, opts, report);
-        report.segments_emitted += moves.len();
-        out.blocks.extend(moves.into_iter().map(Block::Move));
-        run.clear();
-    };
     for b in &tp.blocks {
-        match b {
-            Block::Move(m) if m.kind == MoveKind::Feed && !m.pinned => {
-                if run.is_empty() {
-                    run_start_extra = last_extra;
-                }
-                last_extra = m.extra.or(last_extra);
-                run.push(m.clone());
-            }
-            other => {
-                flush(&mut run, run_start_extra, &mut out, &mut report);
-                match other {
-                    Block::Move(m) => last_extra = m.extra.or(last_extra),
-                    Block::Event(e) => {
-                        if let EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } =
-                            e.kind
-                        {
-                            last_extra = Some(to);
-                        }
-                    }
-                }
-                out.blocks.push(other.clone());
-            }
-        }
+        s.push(b.clone(), &mut out.blocks);
     }
-    flush(&mut run, run_start_extra, &mut out, &mut report);
+    s.finish(&mut out.blocks);
     Ok(Smoothed {
         toolpath: out,
-        report,
+        report: s.report().clone(),
     })
 }
 
-fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
+pub(crate) fn smooth_chain(
+    chain: &Chain<'_>,
+    opts: &SmoothOptions,
+    report: &mut SmoothReport,
+) -> Vec<Move> {
     // Arc joints first (shared by every method), then the method on what that left.
     let curve = match opts.method {
         Method::None => return passthrough(chain),
@@ -477,7 +439,7 @@ pub(crate) fn degenerate_step(pts: &[Vec3], s: Vec3, k: usize) -> Vec3 {
 mod tests {
     use super::*;
     use crate::geom::Line;
-    use crate::path::{Event, EventKind};
+    use crate::path::{Block, Event, EventKind};
 
     /// After `G92 E0` and E-only moves (events), every method continues the extruder
     /// from the value those events left, never from the last move's (audit repro: E ran

@@ -1,0 +1,339 @@
+//! Smoothing a program that arrives block by block, in windows of bounded size
+//! ([`StreamSmoother`]), for programs too large to hold: what [`super::smooth`] does to a
+//! whole program, chain by chain, with a cap on the length of a chain held at once.
+//!
+//! Blocks are taken in program order. Feed moves that are not pinned gather into the
+//! current chain; any other block ends it: the chain is smoothed with the method
+//! ([`super::smooth_chain`]) and its moves are handed out, followed by the block. So far
+//! this is [`super::smooth`], and the output is the same block for block.
+//!
+//! A chain longer than [`StreamOptions::window_moves`] is cut: the longest line or arc among
+//! the last half of the window is split at its midpoint, the part before the midpoint is
+//! smoothed as a chain and handed out, and the rest starts the next window. The path
+//! passes through that midpoint exactly, with the programmed move's tangent (a straight
+//! junction: no stop, no corner), and what a method would have done across it (a corner
+//! transition reaching past half of the split move, a run fitted as one curve, a closed
+//! contour joined at its start) is done on each side separately. Where no chain is that
+//! long (a program of exact stops and rapids every few thousand moves), the result is
+//! exactly that of [`super::smooth`].
+//!
+//! The per-run lists of [`SmoothReport`] keep their first [`MAX_LISTED_RUNS`] entries.
+
+use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport};
+use crate::geom::{ParamCurve, Segment};
+use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind};
+
+/// Entries kept in the per-run lists of the report.
+pub const MAX_LISTED_RUNS: usize = 10_000;
+
+/// Settings of [`StreamSmoother`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct StreamOptions {
+    /// Most moves of a chain held before it is cut (see the module doc). Default
+    /// [`StreamOptions::DEFAULT_WINDOW_MOVES`]: about 1 MB of moves, longer than the runs
+    /// of micro-lines between corners of real CAM output, which are cut only on
+    /// continuous surfacing passes and spirals.
+    pub window_moves: usize,
+}
+
+impl StreamOptions {
+    /// Default of [`StreamOptions::window_moves`].
+    pub const DEFAULT_WINDOW_MOVES: usize = 8192;
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        StreamOptions {
+            window_moves: Self::DEFAULT_WINDOW_MOVES,
+        }
+    }
+}
+
+/// Smooths blocks as they come (see the module doc).
+///
+/// ```
+/// use ncsmooth::smooth::{Method, SmoothOptions};
+/// use ncsmooth::smooth::stream::{StreamOptions, StreamSmoother};
+/// use ncsmooth::{Toolpath, Vec3};
+/// let pts: Vec<Vec3> = (0..=40)
+///     .map(|k| Vec3::new(k as f64, if k % 2 == 0 { 0.0 } else { 0.3 }, 0.0))
+///     .collect();
+/// let program = Toolpath::from_polyline(&pts, Some(50.0));
+/// let opts = SmoothOptions { method: Method::Bspline, tol_mm: 0.01, ..Default::default() };
+/// let mut s = StreamSmoother::new(opts.clone(), StreamOptions::default()).unwrap();
+/// let mut out = Vec::new();
+/// for b in &program.blocks {
+///     s.push(b.clone(), &mut out);
+/// }
+/// s.finish(&mut out);
+/// // The same as smoothing the whole program at once.
+/// let whole = ncsmooth::smooth::smooth(&program, &opts).unwrap();
+/// assert_eq!(out, whole.toolpath.blocks);
+/// ```
+pub struct StreamSmoother {
+    opts: SmoothOptions,
+    stream: StreamOptions,
+    /// The chain being gathered.
+    run: Vec<Move>,
+    /// Extra-axis values before the chain's first move.
+    run_start_extra: Option<ExtraAxes>,
+    /// Extra-axis values after the last block taken.
+    last_extra: Option<ExtraAxes>,
+    report: SmoothReport,
+}
+
+impl StreamSmoother {
+    /// A smoother with `opts`; fails on invalid options.
+    pub fn new(opts: SmoothOptions, stream: StreamOptions) -> Result<Self, OptionsError> {
+        opts.validate()?;
+        Ok(StreamSmoother {
+            report: SmoothReport {
+                method: opts.method,
+                tol_mm: opts.tol_mm,
+                ..Default::default()
+            },
+            opts,
+            stream: StreamOptions {
+                window_moves: stream.window_moves.max(MIN_WINDOW_MOVES),
+            },
+            run: Vec::new(),
+            run_start_extra: None,
+            last_extra: None,
+        })
+    }
+
+    /// Takes the next block of the program; appends to `out` what is ready.
+    pub fn push(&mut self, b: Block, out: &mut Vec<Block>) {
+        match b {
+            Block::Move(m) if m.kind == MoveKind::Feed && !m.pinned => {
+                if self.run.is_empty() {
+                    self.run_start_extra = self.last_extra;
+                }
+                self.last_extra = m.extra.or(self.last_extra);
+                self.run.push(m);
+                if self.run.len() >= self.stream.window_moves {
+                    self.cut(out);
+                }
+            }
+            other => {
+                self.flush(out);
+                match &other {
+                    Block::Move(m) => self.last_extra = m.extra.or(self.last_extra),
+                    Block::Event(e) => {
+                        if let EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } =
+                            e.kind
+                        {
+                            self.last_extra = Some(to);
+                        }
+                    }
+                }
+                out.push(other);
+            }
+        }
+    }
+
+    /// After the last block: hands out the rest.
+    pub fn finish(&mut self, out: &mut Vec<Block>) {
+        self.flush(out);
+    }
+
+    /// What was done so far.
+    pub fn report(&self) -> &SmoothReport {
+        &self.report
+    }
+
+    /// Smooths the gathered chain and hands it out.
+    fn flush(&mut self, out: &mut Vec<Block>) {
+        if self.run.is_empty() {
+            return;
+        }
+        let run = std::mem::take(&mut self.run);
+        self.emit(&run, self.run_start_extra, out);
+        self.run = run;
+        self.run.clear();
+    }
+
+    fn emit(&mut self, moves: &[Move], start_extra: Option<ExtraAxes>, out: &mut Vec<Block>) {
+        let chain = Chain { moves, start_extra };
+        self.report.chains += 1;
+        let smoothed = smooth_chain(&chain, &self.opts, &mut self.report);
+        self.report.segments_emitted += smoothed.len();
+        out.extend(smoothed.into_iter().map(Block::Move));
+        let r = &mut self.report;
+        r.points_per_run.truncate(MAX_LISTED_RUNS);
+        r.fit_deviation_per_run_mm.truncate(MAX_LISTED_RUNS);
+    }
+
+    /// Cuts the chain at the midpoint of a move in its last half (see the module doc).
+    fn cut(&mut self, out: &mut Vec<Block>) {
+        if self.opts.method == Method::None {
+            // Nothing joins moves: hand them out as they are.
+            return self.flush(out);
+        }
+        let n = self.run.len();
+        let Some(c) = (n / 2..n)
+            .filter(|&k| matches!(self.run[k].segment, Segment::Line(_) | Segment::Arc(_)))
+            .max_by(|&a, &b| length(&self.run[a]).total_cmp(&length(&self.run[b])))
+        else {
+            // No line or arc to split (a run of splines): wait for one, or the chain's end.
+            return;
+        };
+        let before = if c == 0 {
+            self.run_start_extra
+        } else {
+            self.run[c - 1].extra
+        };
+        let (first, second) = split_move(&self.run[c], before);
+        let mut left: Vec<Move> = self.run.drain(..=c).collect();
+        left.pop();
+        left.push(first);
+        self.emit(&left, self.run_start_extra, out);
+        self.run_start_extra = left.last().and_then(|m| m.extra);
+        self.run.insert(0, second);
+    }
+}
+
+/// Fewest moves of a window: a cut needs moves on both sides of it.
+const MIN_WINDOW_MOVES: usize = 4;
+
+fn length(m: &Move) -> f64 {
+    match &m.segment {
+        Segment::Line(l) => l.length(),
+        Segment::Arc(a) => a.length(),
+        _ => 0.0,
+    }
+}
+
+/// Move `m` (a line or an arc) as two halves; extra axes interpolated from `before` (their
+/// values at its start) to its end values.
+fn split_move(m: &Move, before: Option<ExtraAxes>) -> (Move, Move) {
+    let (a, b) = match &m.segment {
+        Segment::Line(l) => {
+            let mid = l.eval(0.5);
+            (
+                Segment::Line(crate::geom::Line::new(l.start(), mid)),
+                Segment::Line(crate::geom::Line::new(mid, l.end())),
+            )
+        }
+        Segment::Arc(arc) => (
+            Segment::Arc(arc.subsegment(0.0, 0.5)),
+            Segment::Arc(arc.subsegment(0.5, 1.0)),
+        ),
+        _ => unreachable!("only lines and arcs are split"),
+    };
+    let mid_extra = m.extra.map(|end| {
+        let start = before.unwrap_or(end);
+        let mut v = start;
+        for i in 0..v.len() {
+            v[i] = 0.5 * (start[i] + end[i]);
+        }
+        v
+    });
+    let first = Move {
+        segment: a,
+        extra: mid_extra,
+        ..m.clone()
+    };
+    let second = Move {
+        segment: b,
+        ..m.clone()
+    };
+    (first, second)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Vec3;
+    use crate::path::Toolpath;
+    use crate::verify::{continuity, deviation};
+
+    /// An Archimedean spiral of `n` micro-lines about 0.05 mm long.
+    fn spiral(n: usize) -> Toolpath {
+        let mut theta: f64 = 0.0;
+        let pts: Vec<Vec3> = (0..=n)
+            .map(|_| {
+                let r = 2.0 + 0.4 * theta / std::f64::consts::TAU;
+                theta += 0.05 / r;
+                Vec3::new(r * theta.cos(), r * theta.sin(), 0.0)
+            })
+            .collect();
+        Toolpath::from_polyline(&pts, Some(50.0))
+    }
+
+    fn stream(tp: &Toolpath, opts: &SmoothOptions, window: usize) -> (Toolpath, SmoothReport) {
+        let so = StreamOptions {
+            window_moves: window,
+        };
+        let mut s = StreamSmoother::new(opts.clone(), so).unwrap();
+        let mut out = Toolpath::new(tp.start);
+        for b in &tp.blocks {
+            s.push(b.clone(), &mut out.blocks);
+        }
+        s.finish(&mut out.blocks);
+        (out, s.report().clone())
+    }
+
+    /// A chain longer than the window is cut at line midpoints: every method stays within
+    /// the tolerance both ways, the cuts add no corner (the joints there are tangent), and
+    /// the path passes through each cut midpoint.
+    #[test]
+    fn long_chains_are_cut_within_tolerance_and_without_corners() {
+        let tp = spiral(3000);
+        for method in [
+            Method::None,
+            Method::Bspline,
+            Method::Arc,
+            Method::Nurbs,
+            Method::Trig,
+        ] {
+            let opts = SmoothOptions {
+                method,
+                tol_mm: 0.01,
+                ..Default::default()
+            };
+            let (whole, _) = stream(&tp, &opts, usize::MAX);
+            let (cut, report) = stream(&tp, &opts, 500);
+            let chains = if method == Method::None { 6 } else { 9 };
+            assert!(
+                report.chains >= chains,
+                "{method:?}: {} chains",
+                report.chains
+            );
+            let d = deviation(&cut, &tp, 1e-6);
+            assert!(d.within(0.01), "{method:?}: {d:?}");
+            let (cw, cc) = (continuity(&whole), continuity(&cut));
+            assert_eq!(cc.g0, cw.g0, "{method:?}: corners added by the cuts");
+            assert_eq!(cc.gaps, 0, "{method:?}");
+        }
+    }
+
+    /// A window the chains never reach changes nothing, and splitting keeps the line, the
+    /// extra axes (interpolated to the midpoint) and the move's other fields.
+    #[test]
+    fn short_chains_are_unchanged_and_splits_keep_extra_axes() {
+        let tp = spiral(300);
+        let opts = SmoothOptions {
+            method: Method::Trig,
+            tol_mm: 0.01,
+            ..Default::default()
+        };
+        assert_eq!(
+            stream(&tp, &opts, 400).0.blocks,
+            stream(&tp, &opts, usize::MAX).0.blocks
+        );
+        let mut m = Move::feed(
+            crate::geom::Line::new(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0)),
+            Some(10.0),
+            7,
+        );
+        m.extra = Some([4.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]);
+        let (a, b) = split_move(&m, Some([2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]));
+        assert_eq!(a.segment.end(), Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(b.segment.start(), Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(a.extra, Some([3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0]));
+        assert_eq!(b.extra, m.extra);
+        assert_eq!((a.line, a.feed_mm_s, b.line), (7, Some(10.0), 7));
+    }
+}
