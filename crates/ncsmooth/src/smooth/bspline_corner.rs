@@ -1048,7 +1048,10 @@ mod tests {
             .map(|i| Vec3::new(i as f64 * 1e-3, (i % 2) as f64 * 1e-3, 0.0))
             .collect();
         let tp = Toolpath::from_polyline(&pts, Some(5.0));
-        let out = smooth(&tp, &bspline_opts(0.01)).unwrap();
+        // The paper's transitions: the run mode (which fits the zigzag as one curve) off.
+        let mut o = bspline_opts(0.01);
+        o.run.enabled = false;
+        let out = smooth(&tp, &o).unwrap();
         assert_eq!(out.report.corners_smoothed, 198);
         check(&tp, 0.01, true).unwrap();
     }
@@ -1176,6 +1179,8 @@ mod tests {
         let tp = Toolpath::from_polyline(&pts, None);
         let mut opts = bspline_opts(10.0);
         opts.bspline.lambda = 0.5;
+        // Three 1 mm lines are a run at tol 10 mm: the paper's transitions, run mode off.
+        opts.run.enabled = false;
         let out = smooth(&tp, &opts).unwrap().toolpath;
         let kinds: Vec<&str> = out
             .moves()

@@ -32,8 +32,10 @@
 
 pub mod arc_corner;
 pub mod arc_joint;
+pub mod band_fit;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
+pub mod run_mode;
 pub mod screen;
 pub mod trig_corner;
 
@@ -106,6 +108,10 @@ pub struct SmoothOptions {
     pub nurbs: nurbs_hybrid::NurbsOptions,
     /// Settings of [`Method::Trig`]. Default: [`trig_corner::TrigOptions::default`].
     pub trig: trig_corner::TrigOptions,
+    /// Run mode of [`Method::Bspline`], [`Method::Nurbs`] and [`Method::Trig`]: runs of
+    /// micro-corners fitted as one curve through the band ([`band_fit`]). Default:
+    /// [`band_fit::RunOptions::default`] (on).
+    pub run: band_fit::RunOptions,
 }
 
 impl Default for SmoothOptions {
@@ -118,6 +124,7 @@ impl Default for SmoothOptions {
             arc: Default::default(),
             nurbs: Default::default(),
             trig: trig_corner::TrigOptions::default(),
+            run: Default::default(),
         }
     }
 }
@@ -424,6 +431,21 @@ fn smooth_chain(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRepo
     let blended =
         arc_joint::blend_arc_joints(chain, opts.tol_mm, opts.straight_angle_deg, curve, report);
     let chain = match &blended {
+        Some(moves) => &Chain {
+            moves,
+            start_extra: chain.start_extra,
+        },
+        None => chain,
+    };
+    // Run mode of Guo's and Tao's methods: runs of micro-corners become one curve of the
+    // method's family first (Wu's method fits its runs itself).
+    let family = match opts.method {
+        Method::Bspline => Some(run_mode::Family::Bezier),
+        Method::Trig => Some(run_mode::Family::Trig),
+        _ => None,
+    };
+    let rewritten = family.and_then(|f| run_mode::rewrite_runs(chain, opts, f, report));
+    let chain = match &rewritten {
         Some(moves) => &Chain {
             moves,
             start_extra: chain.start_extra,

@@ -37,6 +37,7 @@
 //! `fit_deviation_per_run_mm` (the measured deviation) are given per emitted curve.
 
 use super::arc_corner::{blend_items, tangent_length, Item, CORNER_TOL_SHARE};
+use super::band_fit::{band_fit, EndCond};
 use super::screen::{screen, Run, ScreenOptions};
 use super::{Chain, ChainPos, SmoothOptions, SmoothReport};
 use crate::geom::interp::{interpolate, interpolate_with_tangents, Parametrization};
@@ -279,17 +280,42 @@ fn run_items(
     };
     let accuracy = opts.tol_mm * no.fit_accuracy_share;
     let mut pieces = Vec::new();
-    fit_range(
-        &pts,
-        0,
-        np - 1,
-        ta,
-        tb,
-        no.parametrization,
-        opts.tol_mm * CORNER_TOL_SHARE,
-        accuracy,
-        &mut pieces,
-    );
+    let band = opts.run.enabled.then(|| {
+        // Run mode: one curve through the band, G2 to the lines beyond its ends (G1 to
+        // an input arc or curve); free at a chain end.
+        let cond = |nb: Option<usize>, d: Vec3| match nb {
+            Some(_) => EndCond::Line(d),
+            None => EndCond::Free,
+        };
+        band_fit(
+            &pts,
+            cond(neighbour(moves, run.first, false), dir_f),
+            cond(neighbour(moves, run.last, true), dir_l),
+            opts.tol_mm * CORNER_TOL_SHARE,
+            accuracy,
+            &opts.run.fit,
+        )
+    });
+    match band.flatten() {
+        Some(f) => pieces.push(Piece {
+            segment: Segment::from(f.curve),
+            a: 0,
+            b: np - 1,
+            fitted: true,
+            deviation_mm: f.deviation_mm,
+        }),
+        None => fit_range(
+            &pts,
+            0,
+            np - 1,
+            ta,
+            tb,
+            no.parametrization,
+            opts.tol_mm * CORNER_TOL_SHARE,
+            accuracy,
+            &mut pieces,
+        ),
+    }
     for p in pieces {
         if p.fitted {
             report.runs_fitted += 1;
@@ -320,7 +346,12 @@ pub fn smooth_nurbs(
     opts: &SmoothOptions,
     report: &mut SmoothReport,
 ) -> Vec<Move> {
-    let runs = screen(chain, &opts.nurbs.screen, opts.tol_mm);
+    let screening = if opts.run.enabled {
+        &opts.run.screen
+    } else {
+        &opts.nurbs.screen
+    };
+    let runs = screen(chain, screening, opts.tol_mm);
     let mut items: Vec<Item> = Vec::with_capacity(chain.moves.len());
     let mut next_run = runs.iter().peekable();
     let mut i = 0;
@@ -415,7 +446,10 @@ mod tests {
     #[test]
     fn fits_runs_and_blends_corners_g1() {
         for tol in [0.002, 0.01, 0.05] {
-            let s = check(&crownish(), &nurbs_opts(tol));
+            // The paper's fit (interpolation through the vertices): the run mode off.
+            let mut o = nurbs_opts(tol);
+            o.run.enabled = false;
+            let s = check(&crownish(), &o);
             let r = &s.report;
             assert!(r.runs_fitted >= 2, "{r:?}");
             assert_eq!(r.points_per_run.len(), r.runs_fitted);

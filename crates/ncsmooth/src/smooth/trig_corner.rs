@@ -609,8 +609,22 @@ pub fn smooth_chain_trig(
 }
 
 /// Classifies the joint at the start of move `i` when it is not a line-line joint.
+/// Zero-length lines carry no direction: the joint is the one between the moves around
+/// them (classified once: here when the move after them is a line, whose group starts at
+/// `i`, else at that move's own start).
 fn joint_between_groups(moves: &[Move], i: usize, opts: &SmoothOptions, counts: &mut Counts) {
-    let (a, b) = (&moves[i - 1].segment, &moves[i].segment);
+    let degenerate =
+        |k: usize| matches!(&moves[k].segment, Segment::Line(l) if l.length() <= DEGENERATE_MM);
+    let Some(k) = (i..moves.len()).find(|&k| !degenerate(k)) else {
+        return;
+    };
+    if k != i && !matches!(moves[k].segment, Segment::Line(_)) {
+        return;
+    }
+    let Some(j) = (0..i).rev().find(|&j| !degenerate(j)) else {
+        return;
+    };
+    let (a, b) = (&moves[j].segment, &moves[k].segment);
     if matches!((a, b), (Segment::Line(_), Segment::Line(_))) {
         return;
     }
