@@ -105,8 +105,6 @@ fn parse_args() -> Args {
             }
             "--run-len" => a.run.fit.smoothing_len_mm = val().parse().expect("mm"),
             "--run-iters" => a.run.fit.max_iters = val().parse().expect("count"),
-            "--run-reparam" => a.run.fit.reparam_passes = val().parse().expect("count"),
-            "--run-peak" => a.run.fit.peak_passes = val().parse().expect("count"),
             f if !f.starts_with("--") => a.file = f.to_string(),
             f => panic!("unknown option {f}"),
         }

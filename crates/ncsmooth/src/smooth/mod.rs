@@ -23,6 +23,14 @@
 //! Non-tangent joints involving an input arc are blended first, the same way for every
 //! method ([`arc_joint`]); the method then works on lines, arcs and those blends.
 //!
+//! ## Run mode
+//! With [`SmoothOptions::run`] (on by default) the curve methods fit runs of micro-corners
+//! as one curve through the whole tolerance band ([`band_fit`]) in their own family:
+//! `bspline` as cubic Béziers and `trig` as trigonometric segments ([`run_mode`], before
+//! their corner transitions), `nurbs` as a NURBS (in its fitting step). `arc` has none: its
+//! family is the corner arc alone. Each method's module says where this follows its paper
+//! and where it extends it.
+//!
 //! ## Methods
 //! * [`Method::None`]: the program unchanged (planning the raw path).
 //! * [`Method::Bspline`]: Guo et al., cubic B-spline corner transitions in a tolerance band.

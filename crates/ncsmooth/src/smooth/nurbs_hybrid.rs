@@ -33,6 +33,18 @@
 //!    ([`super::arc_joint`], as in `--method arc`), and the few that cannot be are exact
 //!    stops, counted in `corners_stopped` and `arc_joints`.
 //!
+//! ## Run mode (an extension, issue 17)
+//! With [`SmoothOptions::run`] enabled (the default) steps 1 and 3 change; the rest is the
+//! paper's. Screening uses [`ScreenOptions::run_mode`]: the chord-error condition of eq. 6
+//! is relaxed to [`super::screen::RUN_CHORD_SHARE`] times the tolerance and turns up to
+//! [`super::screen::RUN_MAX_TURN_DEG`] qualify, so the sampled tips of a curve stay in its
+//! run instead of becoming arc corners. The run is fitted not by interpolating its
+//! vertices (which makes the curve follow every sample and bulge between them) but by the
+//! cubic B-spline of least curvature and curvature variation within the two-sided band
+//! ([`super::band_fit`]; still a NURBS with unit weights, still cubic), which joins the
+//! stubs along them with zero curvature (G2; the stub-arc joints of section III stay G1
+//! as in the paper). Where that fit fails, step 3 runs as without the run mode.
+//!
 //! Report: `runs_fitted` counts the emitted curves (after splitting), `points_per_run` and
 //! `fit_deviation_per_run_mm` (the measured deviation) are given per emitted curve.
 
