@@ -17,8 +17,9 @@
 //! * **Speed.** The path is planned with `ncsmooth::feed` (trapezoid mode, the same
 //!   options as `ncsmooth plan`) and the planned speed `v(s)` read at every sample. Each
 //!   sample below 99.5 % of the feed gets the cap that binds there: `curvature` (the
-//!   per-axis limit `v^2 |K_i| <= A_i`), `chord` (Wu eq. 21), `joint` (the G1 joint cap
-//!   `v^2 |dK_i| <= A_i` or a stop at a move end within half a step) or, when none binds
+//!   per-axis limit `v^2 |K_i| <= A_i`, at a joint that of either move), `chord` (Wu eq.
+//!   21), `joint` (a G1 joint cap `v^2 |dK_i| <= A_i` stricter than both moves' curvature
+//!   caps, or a stop, at a move end within half a step) or, when none binds
 //!   within 1 %, `ramp` (look-ahead: accelerating away from or braking towards a lower
 //!   cap, including the share of the axis acceleration the curvature leaves to the
 //!   tangential one). A ramp's time is also charged to the cap it leads to (`root`). The
@@ -29,6 +30,7 @@
 #![forbid(unsafe_code)]
 
 use ncsmooth::feed::grid::{caps_of, After};
+use ncsmooth::feed::limits::Caps;
 use ncsmooth::feed::{plan_stream, PathIndex, PlanEvent, PlanOptions, ProfilePiece};
 use ncsmooth::geom::{
     Nurbs, ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveNearest, Segment, Vec3,
@@ -266,30 +268,10 @@ fn classify(
         while mv + 1 < index.moves.len() && index.moves[mv].s0 + index.moves[mv].len < x.s {
             mv += 1;
         }
-        let m = &index.moves[mv];
-        let feed = m.vcap_mm_s;
-        let seg = m.segment;
-        let t = seg.inv_arclen((x.s - m.s0).clamp(0.0, m.len), ACCURACY_MM);
-        let k = seg.curvature_vec(t.clamp(1e-9, 1.0 - 1e-9));
-        let mut curv = f64::INFINITY;
-        for i in 0..3 {
-            if k[i].abs() > 1e-12 {
-                curv = curv.min(caps.acc[i] / k[i].abs());
-            }
-        }
-        let kap = k.norm();
-        let chord = if kap > 1e-12 {
-            let (r, d) = (1.0 / kap, caps.chord_error_mm);
-            let c = if d < r {
-                2.0 * (d * (2.0 * r - d)).sqrt()
-            } else {
-                2.0 * r
-            };
-            (c / caps.period_s).powi(2)
-        } else {
-            f64::INFINITY
-        };
-        // Joint caps at move ends within half a step.
+        let feed = index.moves[mv].vcap_mm_s;
+        let (mut curv, mut chord) = point_caps(&index, &caps, mv, x.s);
+        // At a joint within half a step: its own cap, and the curvature caps of both moves
+        // there (a joint cap no stricter than those is not what binds).
         let mut joint = f64::INFINITY;
         for j in mv.saturating_sub(1)..(mv + 2).min(index.moves.len()) {
             let e = index.moves[j].s0 + index.moves[j].len;
@@ -298,6 +280,13 @@ fn classify(
                     After::Continue { x_cap, .. } => x_cap,
                     After::Stop { .. } => 0.0,
                 });
+                for side in [j, j + 1] {
+                    if side < index.moves.len() {
+                        let (c, h) = point_caps(&index, &caps, side, e);
+                        curv = curv.min(c);
+                        chord = chord.min(h);
+                    }
+                }
             }
         }
         let (v, v2) = (x.v, x.v * x.v);
@@ -347,6 +336,35 @@ fn classify(
             x.root = root;
         }
     }
+}
+
+/// The curvature and chord-error caps on `v^2` of move `mv` of `index` at the arc length
+/// `s` (clamped to the move; the curvature read just inside its ends).
+fn point_caps(index: &PathIndex<'_>, caps: &Caps, mv: usize, s: f64) -> (f64, f64) {
+    let m = &index.moves[mv];
+    let t = m
+        .segment
+        .inv_arclen((s - m.s0).clamp(0.0, m.len), ACCURACY_MM);
+    let k = m.segment.curvature_vec(t.clamp(1e-9, 1.0 - 1e-9));
+    let mut curv = f64::INFINITY;
+    for i in 0..3 {
+        if k[i].abs() > 1e-12 {
+            curv = curv.min(caps.acc[i] / k[i].abs());
+        }
+    }
+    let kap = k.norm();
+    let chord = if kap > 1e-12 {
+        let (r, d) = (1.0 / kap, caps.chord_error_mm);
+        let c = if d < r {
+            2.0 * (d * (2.0 * r - d)).sqrt()
+        } else {
+            2.0 * r
+        };
+        (c / caps.period_s).powi(2)
+    } else {
+        f64::INFINITY
+    };
+    (curv, chord)
 }
 
 /// Time lost against the feed per cause (index into [`CAUSES`]), by `cause` or `root`.
