@@ -50,6 +50,7 @@
 
 use super::arc_corner::{blend_items, tangent_length, Item, CORNER_TOL_SHARE};
 use super::band_fit::{band_fit, EndCond};
+use super::run_mode::neighbour;
 use super::screen::{screen, Run, ScreenOptions};
 use super::{Chain, ChainPos, SmoothOptions, SmoothReport};
 use crate::geom::interp::{interpolate, interpolate_with_tangents, Parametrization};
@@ -160,24 +161,6 @@ fn fit_range(
     };
     fit_range(pts, a, m, ta_l, tm, kind, tol, accuracy, out);
     fit_range(pts, m, b, tm, tb_r, kind, tol, accuracy, out);
-}
-
-/// The previous (or next, `dir = 1`) non-degenerate move of the chain from `i`.
-fn neighbour(moves: &[Move], i: usize, forward: bool) -> Option<usize> {
-    let mut j = i;
-    loop {
-        if forward {
-            j += 1;
-            if j >= moves.len() {
-                return None;
-            }
-        } else {
-            j = j.checked_sub(1)?;
-        }
-        if moves[j].segment.length(DEGENERATE_MM) > DEGENERATE_MM {
-            return Some(j);
-        }
-    }
 }
 
 /// Length of the stub reserved at one end of a run: `l_c` of eq. 11 for the corner with
