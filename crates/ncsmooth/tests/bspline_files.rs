@@ -1,5 +1,6 @@
-//! `--method bspline` on real files: the paper's butterfly (tol 0.05 mm) and 3-D hexagon,
-//! and every file of `../shared/data/gcode` at tol 0.01 mm. Checks: measured two-sided
+//! `--method bspline` on real files: the paper's butterfly (tol 0.05 mm) and 3-D hexagon
+//! (the paper's transitions, run mode off), and every file of `../shared/data/gcode` at
+//! tol 0.01 mm (run mode on). Checks: measured two-sided
 //! deviation within tol (to tol * 1e-3), every transition joint G2 except where a transition
 //! ends on a programmed exact stop or meets the hooks into and out of a closed loop (G1),
 //! nothing of the program lost (events, rapids, final point).
@@ -22,14 +23,16 @@ fn key(p: Vec3) -> [u64; 3] {
     [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
 }
 
-/// Smooths `tp` with `--method bspline --tol tol` and checks the contract; returns the
-/// report and the measured worst deviation / tol.
-fn run(name: &str, tp: &Toolpath, tol: f64) -> (SmoothReport, f64, Toolpath) {
-    let opts = SmoothOptions {
+/// Smooths `tp` with `--method bspline --tol tol` (with the run mode when `runs`, else the
+/// paper's transitions alone) and checks the contract; returns the report and the
+/// measured worst deviation / tol.
+fn run(name: &str, tp: &Toolpath, tol: f64, runs: bool) -> (SmoothReport, f64, Toolpath) {
+    let mut opts = SmoothOptions {
         method: Method::Bspline,
         tol_mm: tol,
         ..Default::default()
     };
+    opts.run.enabled = runs;
     let out = smooth(tp, &opts).unwrap();
     let d = deviation(&out.toolpath, tp, tol * 1e-3);
     let ratio = d.max_mm() / tol;
@@ -111,7 +114,8 @@ fn butterfly_80_tol_005() {
         return;
     };
     let tp = parse(&p);
-    let (r, _, out) = run("butterfly_80", &tp, 0.05);
+    // The paper's case: its transitions, no run mode.
+    let (r, _, out) = run("butterfly_80", &tp, 0.05, false);
     assert!(r.corners_smoothed >= 70, "{r:?}");
     let prof = curvature_profile(&out, 0.01);
     assert!(prof.iter().all(|(s, k)| s.is_finite() && k.is_finite()));
@@ -124,7 +128,7 @@ fn hexagon3d_every_corner_within_tol() {
         return;
     };
     let tp = parse(&p);
-    let (r, ratio, out) = run("hexagon3d", &tp, 0.05);
+    let (r, ratio, out) = run("hexagon3d", &tp, 0.05, false);
     // Closed: six corners, including the closing one.
     assert_eq!(r.corners_smoothed, 6, "{r:?}");
     assert!(
@@ -147,7 +151,7 @@ fn gcode_file(name: &str, tol: f64) {
     let tp = parse(&p);
     let has_moves = tp.blocks.iter().any(|b| matches!(b, Block::Move(_)));
     assert!(has_moves);
-    let _ = run(name, &tp, tol);
+    let _ = run(name, &tp, tol, true);
 }
 
 macro_rules! file_tests {

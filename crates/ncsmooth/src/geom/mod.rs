@@ -19,5 +19,7 @@ pub use line::Line;
 pub use nurbs::{Nurbs, MAX_DEGREE};
 pub use segment::Segment;
 pub use traits::*;
-pub use trig_spline::{basis as trig_basis, PreparedTrig, TrigSpline};
+pub use trig_spline::{
+    basis as trig_basis, basis_deriv as trig_basis_deriv, PreparedTrig, TrigSpline,
+};
 pub use vec3::{Aabb, Vec3};

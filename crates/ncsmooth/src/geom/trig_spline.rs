@@ -97,6 +97,20 @@ pub fn basis(u: f64, lambda: f64, k: f64) -> [f64; 4] {
     b
 }
 
+/// Derivatives of the four basis functions of eq. 1 with respect to `u` at `u`.
+pub fn basis_deriv(u: f64, lambda: f64, k: f64) -> [f64; 4] {
+    let (s, c) = (FRAC_PI_2 * u).sin_cos();
+    let f = funcs_d1_sc(s, c);
+    let co = coeffs(lambda, k);
+    let mut b = [0.0; 4];
+    for j in 0..3 {
+        b[j + 1] = FRAC_PI_2 * (0..6).map(|m| co[j][m] * f[m]).sum::<f64>();
+    }
+    // The basis sums to one, so its derivatives sum to zero.
+    b[0] = -(b[1] + b[2] + b[3]);
+    b
+}
+
 /// Coefficients of `B1, B2, B3` (eq. 1) over `[C^3, S^3, S^2, C, S, 1]`.
 #[inline]
 fn coeffs(l: f64, k: f64) -> [[f64; 6]; 3] {

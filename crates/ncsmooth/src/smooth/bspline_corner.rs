@@ -91,6 +91,25 @@
 //!   transitions for six corners): `smooth_closing_corner = false`.
 //! * **3-D**: `a`, `b` span the plane of the two legs; nothing else is needed.
 //!
+//! ## Run mode (an extension, issue 17; [`super::run_mode`])
+//! The paper smooths one corner at a time and names the drawback itself (section 5: "the
+//! inability to achieve curvature continuity along the entire toolpath"). On a curve
+//! sampled every few tenths of a millimetre, one transition per vertex makes the curvature
+//! go straight, blend, straight, blend, with peaks far above the sampled curve's. With
+//! [`SmoothOptions::run`] enabled (the default), runs of micro-corners (turns up to
+//! [`super::screen::RUN_MAX_TURN_DEG`] between lines of similar length) are first replaced
+//! by one cubic B-spline through the whole two-sided band ([`super::band_fit`]: the curve
+//! of least curvature and curvature variation within the band), carried as the cubic
+//! Béziers of its knot spans like the transitions here. What follows the paper: the curve
+//! family (a clamped cubic B-spline), the GC2 joins (the run curve leaves and joins its end
+//! lines along them with zero curvature, because its first and last three control points
+//! are collinear with the line, section 3.1's argument), and every other corner, sharp or
+//! between long lines, gets the transition of sections 3.1 to 3.5 below, using the half of
+//! the run's end line the run leaves it. What extends it: the run's control points are
+//! chosen by an optimisation instead of the construction of section 3.2, and the tolerance
+//! is measured on the fitted curve (the construction's closed forms do not apply). With
+//! the run mode off, the method is the paper's alone.
+//!
 //! ## Limits
 //! The built curve holds `tol` exactly up to the rounding of its control points to
 //! `ulp(|x|)` (1.5e-11 mm at 1e5 mm), which `e* = tol (1 - TOL_SAFETY)` absorbs for
@@ -1048,7 +1067,10 @@ mod tests {
             .map(|i| Vec3::new(i as f64 * 1e-3, (i % 2) as f64 * 1e-3, 0.0))
             .collect();
         let tp = Toolpath::from_polyline(&pts, Some(5.0));
-        let out = smooth(&tp, &bspline_opts(0.01)).unwrap();
+        // The paper's transitions: the run mode (which fits the zigzag as one curve) off.
+        let mut o = bspline_opts(0.01);
+        o.run.enabled = false;
+        let out = smooth(&tp, &o).unwrap();
         assert_eq!(out.report.corners_smoothed, 198);
         check(&tp, 0.01, true).unwrap();
     }
@@ -1176,6 +1198,8 @@ mod tests {
         let tp = Toolpath::from_polyline(&pts, None);
         let mut opts = bspline_opts(10.0);
         opts.bspline.lambda = 0.5;
+        // Three 1 mm lines are a run at tol 10 mm: the paper's transitions, run mode off.
+        opts.run.enabled = false;
         let out = smooth(&tp, &opts).unwrap().toolpath;
         let kinds: Vec<&str> = out
             .moves()

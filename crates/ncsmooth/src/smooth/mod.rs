@@ -23,6 +23,14 @@
 //! Non-tangent joints involving an input arc are blended first, the same way for every
 //! method ([`arc_joint`]); the method then works on lines, arcs and those blends.
 //!
+//! ## Run mode
+//! With [`SmoothOptions::run`] (on by default) the curve methods fit runs of micro-corners
+//! as one curve through the whole tolerance band ([`band_fit`]) in their own family:
+//! `bspline` as cubic Béziers and `trig` as trigonometric segments ([`run_mode`], before
+//! their corner transitions), `nurbs` as a NURBS (in its fitting step). `arc` has none: its
+//! family is the corner arc alone. Each method's module says where this follows its paper
+//! and where it extends it.
+//!
 //! ## Methods
 //! * [`Method::None`]: the program unchanged (planning the raw path).
 //! * [`Method::Bspline`]: Guo et al., cubic B-spline corner transitions in a tolerance band.
@@ -32,8 +40,10 @@
 
 pub mod arc_corner;
 pub mod arc_joint;
+pub mod band_fit;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
+pub mod run_mode;
 pub mod screen;
 pub mod stream;
 pub mod trig_corner;
@@ -107,6 +117,10 @@ pub struct SmoothOptions {
     pub nurbs: nurbs_hybrid::NurbsOptions,
     /// Settings of [`Method::Trig`]. Default: [`trig_corner::TrigOptions::default`].
     pub trig: trig_corner::TrigOptions,
+    /// Run mode of [`Method::Bspline`], [`Method::Nurbs`] and [`Method::Trig`]: runs of
+    /// micro-corners fitted as one curve through the band ([`band_fit`]). Default:
+    /// [`band_fit::RunOptions::default`] (on).
+    pub run: band_fit::RunOptions,
 }
 
 impl Default for SmoothOptions {
@@ -119,6 +133,7 @@ impl Default for SmoothOptions {
             arc: Default::default(),
             nurbs: Default::default(),
             trig: trig_corner::TrigOptions::default(),
+            run: Default::default(),
         }
     }
 }
@@ -386,6 +401,21 @@ pub(crate) fn smooth_chain(
     let blended =
         arc_joint::blend_arc_joints(chain, opts.tol_mm, opts.straight_angle_deg, curve, report);
     let chain = match &blended {
+        Some(moves) => &Chain {
+            moves,
+            start_extra: chain.start_extra,
+        },
+        None => chain,
+    };
+    // Run mode of Guo's and Tao's methods: runs of micro-corners become one curve of the
+    // method's family first (Wu's method fits its runs itself).
+    let family = match opts.method {
+        Method::Bspline => Some(run_mode::Family::Bezier),
+        Method::Trig => Some(run_mode::Family::Trig),
+        _ => None,
+    };
+    let rewritten = family.and_then(|f| run_mode::rewrite_runs(chain, opts, f, report));
+    let chain = match &rewritten {
         Some(moves) => &Chain {
             moves,
             start_extra: chain.start_extra,

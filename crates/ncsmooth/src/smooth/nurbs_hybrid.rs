@@ -33,10 +33,24 @@
 //!    ([`super::arc_joint`], as in `--method arc`), and the few that cannot be are exact
 //!    stops, counted in `corners_stopped` and `arc_joints`.
 //!
+//! ## Run mode (an extension, issue 17)
+//! With [`SmoothOptions::run`] enabled (the default) steps 1 and 3 change; the rest is the
+//! paper's. Screening uses [`ScreenOptions::run_mode`]: the chord-error condition of eq. 6
+//! is relaxed to [`super::screen::RUN_CHORD_SHARE`] times the tolerance and turns up to
+//! [`super::screen::RUN_MAX_TURN_DEG`] qualify, so the sampled tips of a curve stay in its
+//! run instead of becoming arc corners. The run is fitted not by interpolating its
+//! vertices (which makes the curve follow every sample and bulge between them) but by the
+//! cubic B-spline of least curvature and curvature variation within the two-sided band
+//! ([`super::band_fit`]; still a NURBS with unit weights, still cubic), which joins the
+//! stubs along them with zero curvature (G2; the stub-arc joints of section III stay G1
+//! as in the paper). Where that fit fails, step 3 runs as without the run mode.
+//!
 //! Report: `runs_fitted` counts the emitted curves (after splitting), `points_per_run` and
 //! `fit_deviation_per_run_mm` (the measured deviation) are given per emitted curve.
 
 use super::arc_corner::{blend_items, tangent_length, Item, CORNER_TOL_SHARE};
+use super::band_fit::{band_fit, EndCond};
+use super::run_mode::neighbour;
 use super::screen::{screen, Run, ScreenOptions};
 use super::{Chain, ChainPos, SmoothOptions, SmoothReport};
 use crate::geom::interp::{interpolate, interpolate_with_tangents, Parametrization};
@@ -147,24 +161,6 @@ fn fit_range(
     };
     fit_range(pts, a, m, ta_l, tm, kind, tol, accuracy, out);
     fit_range(pts, m, b, tm, tb_r, kind, tol, accuracy, out);
-}
-
-/// The previous (or next, `dir = 1`) non-degenerate move of the chain from `i`.
-fn neighbour(moves: &[Move], i: usize, forward: bool) -> Option<usize> {
-    let mut j = i;
-    loop {
-        if forward {
-            j += 1;
-            if j >= moves.len() {
-                return None;
-            }
-        } else {
-            j = j.checked_sub(1)?;
-        }
-        if moves[j].segment.length(DEGENERATE_MM) > DEGENERATE_MM {
-            return Some(j);
-        }
-    }
 }
 
 /// Length of the stub reserved at one end of a run: `l_c` of eq. 11 for the corner with
@@ -279,17 +275,42 @@ fn run_items(
     };
     let accuracy = opts.tol_mm * no.fit_accuracy_share;
     let mut pieces = Vec::new();
-    fit_range(
-        &pts,
-        0,
-        np - 1,
-        ta,
-        tb,
-        no.parametrization,
-        opts.tol_mm * CORNER_TOL_SHARE,
-        accuracy,
-        &mut pieces,
-    );
+    let band = opts.run.enabled.then(|| {
+        // Run mode: one curve through the band, G2 to the lines beyond its ends (G1 to
+        // an input arc or curve); free at a chain end.
+        let cond = |nb: Option<usize>, d: Vec3| match nb {
+            Some(_) => EndCond::Line(d),
+            None => EndCond::Free,
+        };
+        band_fit(
+            &pts,
+            cond(neighbour(moves, run.first, false), dir_f),
+            cond(neighbour(moves, run.last, true), dir_l),
+            opts.tol_mm * CORNER_TOL_SHARE,
+            accuracy,
+            &opts.run.fit,
+        )
+    });
+    match band.flatten() {
+        Some(f) => pieces.push(Piece {
+            segment: Segment::from(f.curve),
+            a: 0,
+            b: np - 1,
+            fitted: true,
+            deviation_mm: f.deviation_mm,
+        }),
+        None => fit_range(
+            &pts,
+            0,
+            np - 1,
+            ta,
+            tb,
+            no.parametrization,
+            opts.tol_mm * CORNER_TOL_SHARE,
+            accuracy,
+            &mut pieces,
+        ),
+    }
     for p in pieces {
         if p.fitted {
             report.runs_fitted += 1;
@@ -320,7 +341,12 @@ pub fn smooth_nurbs(
     opts: &SmoothOptions,
     report: &mut SmoothReport,
 ) -> Vec<Move> {
-    let runs = screen(chain, &opts.nurbs.screen, opts.tol_mm);
+    let screening = if opts.run.enabled {
+        &opts.run.screen
+    } else {
+        &opts.nurbs.screen
+    };
+    let runs = screen(chain, screening, opts.tol_mm);
     let mut items: Vec<Item> = Vec::with_capacity(chain.moves.len());
     let mut next_run = runs.iter().peekable();
     let mut i = 0;
@@ -415,7 +441,10 @@ mod tests {
     #[test]
     fn fits_runs_and_blends_corners_g1() {
         for tol in [0.002, 0.01, 0.05] {
-            let s = check(&crownish(), &nurbs_opts(tol));
+            // The paper's fit (interpolation through the vertices): the run mode off.
+            let mut o = nurbs_opts(tol);
+            o.run.enabled = false;
+            let s = check(&crownish(), &o);
             let r = &s.report;
             assert!(r.runs_fitted >= 2, "{r:?}");
             assert_eq!(r.points_per_run.len(), r.runs_fitted);

@@ -59,6 +59,34 @@ impl Default for ScreenOptions {
     }
 }
 
+impl ScreenOptions {
+    /// The screening of the methods' run mode ([`super::band_fit`]): micro-corners turning
+    /// by up to [`RUN_MAX_TURN_DEG`] between lines of similar length (ratio at most
+    /// [`RUN_RATIO_MAX`]) whose chord error (eq. 6) is at most [`RUN_CHORD_SHARE`] times the
+    /// tolerance. The band fit measures its own deviation, so the chord error need not
+    /// leave room for a curve through the vertices: it only keeps coarse polygons (long
+    /// lines turning by a few degrees, where a curve would have to hug every line) out of
+    /// the runs.
+    pub fn run_mode() -> ScreenOptions {
+        ScreenOptions {
+            max_len_mm: None,
+            ratio_max: RUN_RATIO_MAX,
+            min_angle_deg: 180.0 - RUN_MAX_TURN_DEG,
+            chord_share: RUN_CHORD_SHARE,
+            min_lines: 3,
+        }
+    }
+}
+
+/// Largest turn (degrees) of a junction inside a run of the run mode: the sampled tips of
+/// butterfly_1000 (0.4 mm chords) turn by up to 100 degrees at one vertex; a sharper turn
+/// is a corner, left to the method's transition.
+pub const RUN_MAX_TURN_DEG: f64 = 105.0;
+/// Largest ratio of neighbouring line lengths inside a run of the run mode.
+pub const RUN_RATIO_MAX: f64 = 4.0;
+/// Largest chord error (eq. 6) inside a run of the run mode, as a multiple of the tolerance.
+pub const RUN_CHORD_SHARE: f64 = 8.0;
+
 /// A run of consecutive line moves of a chain: indices `first..=last`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Run {

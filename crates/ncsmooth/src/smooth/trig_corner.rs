@@ -47,6 +47,22 @@
 //! lines, transitions and loops are G1 (tangent continuous): a parametric C1 there would
 //! tie the derivative to the line's length, which carries no geometric meaning.
 //!
+//! ## Run mode (an extension, issue 17; [`super::run_mode`])
+//! With [`SmoothOptions::run`] enabled (the default), runs of micro-corners ([`screen`]
+//! with [`ScreenOptions::run_mode`]) are replaced before the above by one curve through the
+//! whole two-sided band: the cubic B-spline of least curvature and curvature variation
+//! ([`super::band_fit`]), each of its cubic pieces carried by one trigonometric spline
+//! segment of eq. 2 (`lambda = 1`, `k = -1`) evaluated on a short window of its natural
+//! parameter, as the paper describes circular arcs of less than 90 degrees
+//! ([`super::run_mode::trig_window`]); consecutive segments share position and
+//! derivative, and their curvatures agree up to the window's small error (G2 within the
+//! continuity audit's tolerance on the profiles). This extends the paper: its runs
+//! interpolate the vertices with C1 joints (eq. 5), and its shape parameters are not
+//! chosen by any criterion; here the curve uses the band and the segments' control points
+//! are solved, not taken from the data. The run's ends meet the lines beyond along them,
+//! and the remaining corners get the transitions below (Fig. 9) or loops (Fig. 8). Without
+//! the run mode, the method is as described above.
+//!
 //! ## Inside transition (Fig. 9)
 //! At a corner `V` with unit directions `a` (in) and `b` (out), turning by `beta`, the
 //! control points are `C1 = V - d a`, `C2 = V + d b`, `C3 = C1 + rho d a` (on the extension
@@ -609,8 +625,22 @@ pub fn smooth_chain_trig(
 }
 
 /// Classifies the joint at the start of move `i` when it is not a line-line joint.
+/// Zero-length lines carry no direction: the joint is the one between the moves around
+/// them (classified once: here when the move after them is a line, whose group starts at
+/// `i`, else at that move's own start).
 fn joint_between_groups(moves: &[Move], i: usize, opts: &SmoothOptions, counts: &mut Counts) {
-    let (a, b) = (&moves[i - 1].segment, &moves[i].segment);
+    let degenerate =
+        |k: usize| matches!(&moves[k].segment, Segment::Line(l) if l.length() <= DEGENERATE_MM);
+    let Some(k) = (i..moves.len()).find(|&k| !degenerate(k)) else {
+        return;
+    };
+    if k != i && !matches!(moves[k].segment, Segment::Line(_)) {
+        return;
+    }
+    let Some(j) = (0..i).rev().find(|&j| !degenerate(j)) else {
+        return;
+    };
+    let (a, b) = (&moves[j].segment, &moves[k].segment);
     if matches!((a, b), (Segment::Line(_), Segment::Line(_))) {
         return;
     }
