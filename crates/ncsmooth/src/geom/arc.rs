@@ -29,6 +29,10 @@ pub struct Arc {
     pub axial: Vec3,
 }
 
+/// Chord between an arc's in-plane ends, as a share of its radius, below which the ends
+/// coincide and the arc is a full circle (rounding of the end point).
+pub const FULL_CIRCLE_CHORD_SHARE: f64 = 1e-12;
+
 impl Arc {
     /// Arc from `start` to `end` about the axis `axis` (unit normal of the arc plane)
     /// through `center`. `ccw` means a positive (right-handed) rotation about `axis`.
@@ -57,7 +61,10 @@ impl Arc {
         let chord_len = chord.norm();
         let r_start = start.dist(c);
         let r_end = end_in_plane.dist(c);
-        if chord_len > 0.0 && r_start != r_end {
+        // A full circle (ends coincident but for rounding, see below) keeps its centre: the
+        // bisector of a rounding-sized chord points anywhere.
+        let full_circle = chord_len <= r_start * FULL_CIRCLE_CHORD_SHARE;
+        if !full_circle && r_start != r_end {
             // Move the centre onto the bisector: c' = c - ((c - mid) . d) d, d = chord dir.
             let d = chord / chord_len;
             let mid = (start + end_in_plane) * 0.5;
@@ -77,7 +84,7 @@ impl Arc {
             ang += TAU;
         }
         // Coincident in-plane ends: a full circle rather than a zero sweep.
-        if chord_len <= radius * 1e-12 {
+        if full_circle {
             ang = TAU;
         }
         let sweep = ang + TAU * turns as f64;
