@@ -77,6 +77,7 @@ fn bench(c: &mut Criterion) {
                     let chain = Chain {
                         moves: ch,
                         start_extra: None,
+                        open_ends: [false; 2],
                     };
                     n += bspline_corner::smooth_chain(&chain, &opts, &opts.bspline, &mut report)
                         .len();

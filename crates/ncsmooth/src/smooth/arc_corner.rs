@@ -495,6 +495,7 @@ mod tests {
         let chain = Chain {
             moves: &prog,
             start_extra: None,
+            open_ends: [false; 2],
         };
         let mut rep = SmoothReport::default();
         let pieces = blend_items(

@@ -238,6 +238,10 @@ pub struct Chain<'a> {
     pub moves: &'a [Move],
     /// Extra-axis values before the first move, if the program uses extra axes.
     pub start_extra: Option<ExtraAxes>,
+    /// Whether the path goes on past the chain's start and end (`[start, end]`): a cut of
+    /// [`stream::StreamSmoother`] at the midpoint of a line or arc, where the curve must
+    /// leave along the move's own direction (no corner at the cut), not a free tangent.
+    pub open_ends: [bool; 2],
 }
 
 impl Chain<'_> {
@@ -404,6 +408,7 @@ pub(crate) fn smooth_chain(
         Some(moves) => &Chain {
             moves,
             start_extra: chain.start_extra,
+            open_ends: chain.open_ends,
         },
         None => chain,
     };
@@ -419,6 +424,7 @@ pub(crate) fn smooth_chain(
         Some(moves) => &Chain {
             moves,
             start_extra: chain.start_extra,
+            open_ends: chain.open_ends,
         },
         None => chain,
     };
@@ -568,6 +574,7 @@ mod tests {
         let chain = Chain {
             moves: &moves[1..],
             start_extra: Some([0.0; 7]),
+            open_ends: [false; 2],
         };
         let e = extra_at(
             &chain,

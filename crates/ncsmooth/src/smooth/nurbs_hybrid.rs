@@ -278,14 +278,14 @@ fn run_items(
     let band = opts.run.enabled.then(|| {
         // Run mode: one curve through the band, G2 to the lines beyond its ends (G1 to
         // an input arc or curve); free at a chain end.
-        let cond = |nb: Option<usize>, d: Vec3| match nb {
+        let cond = |nb: Option<usize>, at_start: bool, d: Vec3| match nb {
             Some(_) => EndCond::Line(d),
-            None => EndCond::Free,
+            None => super::run_mode::chain_end_cond(chain, at_start, d),
         };
         band_fit(
             &pts,
-            cond(neighbour(moves, run.first, false), dir_f),
-            cond(neighbour(moves, run.last, true), dir_l),
+            cond(neighbour(moves, run.first, false), true, dir_f),
+            cond(neighbour(moves, run.last, true), false, dir_l),
             opts.tol_mm * CORNER_TOL_SHARE,
             accuracy,
             &opts.run.fit,

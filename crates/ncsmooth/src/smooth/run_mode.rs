@@ -15,7 +15,8 @@
 //!   the stub with zero curvature ([`EndCond::Line`]: G2 to the stub);
 //! * where it meets a straight joint or a curve (an input arc, a blend), `S` is the
 //!   vertex itself and the curve leaves along the line (tangent to what comes before);
-//! * at a chain end `S` is the vertex and the tangent is free ([`EndCond::Free`]).
+//! * at a chain end `S` is the vertex and the tangent is free ([`EndCond::Free`]), but
+//!   along the line where the chain is a stream cut ([`Chain::open_ends`]).
 //!
 //! The fit holds the band against the run's own polyline `S, V_(first+1), .., E`, a part of
 //! the programmed path, so the contract holds for the whole chain as it does for each
@@ -81,14 +82,15 @@ pub(crate) fn neighbour(moves: &[Move], i: usize, forward: bool) -> Option<usize
 
 /// Where a run ends: the share of its end line kept as a stub, and the end condition.
 fn run_end(
-    moves: &[Move],
+    chain: &Chain<'_>,
     line: usize,
     dir: Vec3,
     at_start: bool,
     straight_deg: f64,
 ) -> (f64, EndCond) {
+    let moves = chain.moves;
     let Some(nb) = neighbour(moves, line, !at_start) else {
-        return (0.0, EndCond::Free);
+        return (0.0, chain_end_cond(chain, at_start, dir));
     };
     let (a, b) = if at_start {
         (&moves[nb].segment, &moves[line].segment)
@@ -98,6 +100,16 @@ fn run_end(
     let corner = matches!(moves[nb].segment, Segment::Line(_))
         && super::turn_angle_deg(a, b).is_none_or(|t| t >= straight_deg);
     (if corner { STUB_SHARE } else { 0.0 }, EndCond::Line(dir))
+}
+
+/// The end condition of a run curve at the chain's start (`at_start`) or end: free, but
+/// along the move's direction `dir` where the chain was cut and the path goes on.
+pub(crate) fn chain_end_cond(chain: &Chain<'_>, at_start: bool, dir: Vec3) -> EndCond {
+    if chain.open_ends[usize::from(!at_start)] {
+        EndCond::Line(dir)
+    } else {
+        EndCond::Free
+    }
 }
 
 /// A fitted run: its curve, the chord-length parameters of its points and where they lie
@@ -153,8 +165,8 @@ fn fit_run(chain: &Chain<'_>, r: Run, opts: &SmoothOptions, family: Family) -> O
         (last.p1 - last.p0).normalized()?,
     );
     let straight = opts.straight_angle_deg;
-    let (s0, c0) = run_end(moves, r.first, df, true, straight);
-    let (s1, c1) = run_end(moves, r.last, dl, false, straight);
+    let (s0, c0) = run_end(chain, r.first, df, true, straight);
+    let (s1, c1) = run_end(chain, r.last, dl, false, straight);
     let mut pts = vec![first.p0.lerp(first.p1, s0)];
     for i in r.first..r.last {
         pts.push(line(i)?.p1);

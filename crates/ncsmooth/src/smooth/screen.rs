@@ -218,6 +218,7 @@ mod tests {
         let chain = Chain {
             moves: &moves,
             start_extra: None,
+            open_ends: [false; 2],
         };
         let runs = screen(&chain, &ScreenOptions::default(), 0.01);
         assert_eq!(runs, vec![Run { first: 1, last: 20 }]);
@@ -244,6 +245,7 @@ mod tests {
         let chain = Chain {
             moves: &moves,
             start_extra: None,
+            open_ends: [false; 2],
         };
         assert!(screen(&chain, &ScreenOptions::default(), 0.01).is_empty());
     }

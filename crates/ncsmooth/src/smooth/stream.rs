@@ -17,7 +17,8 @@
 //! long (a program of exact stops and rapids every few thousand moves), the result is
 //! exactly that of [`super::smooth`].
 //!
-//! The per-run lists of [`SmoothReport`] keep their first [`MAX_LISTED_RUNS`] entries.
+//! With a window, the per-run lists of [`SmoothReport`] keep their first
+//! [`MAX_LISTED_RUNS`] entries (the counts are complete).
 
 use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport};
 use crate::geom::{ParamCurve, Segment};
@@ -78,6 +79,8 @@ pub struct StreamSmoother {
     run: Vec<Move>,
     /// Extra-axis values before the chain's first move.
     run_start_extra: Option<ExtraAxes>,
+    /// Whether the chain being gathered starts at a cut.
+    run_cut_before: bool,
     /// Extra-axis values after the last block taken.
     last_extra: Option<ExtraAxes>,
     report: SmoothReport,
@@ -99,6 +102,7 @@ impl StreamSmoother {
             },
             run: Vec::new(),
             run_start_extra: None,
+            run_cut_before: false,
             last_extra: None,
         })
     }
@@ -149,20 +153,38 @@ impl StreamSmoother {
             return;
         }
         let run = std::mem::take(&mut self.run);
-        self.emit(&run, self.run_start_extra, out);
+        self.emit(
+            &run,
+            self.run_start_extra,
+            [self.run_cut_before, false],
+            out,
+        );
         self.run = run;
         self.run.clear();
+        self.run_cut_before = false;
     }
 
-    fn emit(&mut self, moves: &[Move], start_extra: Option<ExtraAxes>, out: &mut Vec<Block>) {
-        let chain = Chain { moves, start_extra };
+    fn emit(
+        &mut self,
+        moves: &[Move],
+        start_extra: Option<ExtraAxes>,
+        open_ends: [bool; 2],
+        out: &mut Vec<Block>,
+    ) {
+        let chain = Chain {
+            moves,
+            start_extra,
+            open_ends,
+        };
         self.report.chains += 1;
         let smoothed = smooth_chain(&chain, &self.opts, &mut self.report);
         self.report.segments_emitted += smoothed.len();
         out.extend(smoothed.into_iter().map(Block::Move));
-        let r = &mut self.report;
-        r.points_per_run.truncate(MAX_LISTED_RUNS);
-        r.fit_deviation_per_run_mm.truncate(MAX_LISTED_RUNS);
+        if self.stream.window_moves != usize::MAX {
+            let r = &mut self.report;
+            r.points_per_run.truncate(MAX_LISTED_RUNS);
+            r.fit_deviation_per_run_mm.truncate(MAX_LISTED_RUNS);
+        }
     }
 
     /// Cuts the chain at the midpoint of a move in its last half (see the module doc).
@@ -188,8 +210,14 @@ impl StreamSmoother {
         let mut left: Vec<Move> = self.run.drain(..=c).collect();
         left.pop();
         left.push(first);
-        self.emit(&left, self.run_start_extra, out);
+        self.emit(
+            &left,
+            self.run_start_extra,
+            [self.run_cut_before, true],
+            out,
+        );
         self.run_start_extra = left.last().and_then(|m| m.extra);
+        self.run_cut_before = true;
         self.run.insert(0, second);
     }
 }
