@@ -39,8 +39,11 @@ pub struct RewriteOptions {
     pub decimals: usize,
     /// Chord tolerance (mm) for flattening curves G-code cannot carry. Default 0.001.
     pub chord_mm: f64,
-    /// Comment lines written at the top (after an opening `%`), each as a `;` comment so
-    /// that the controller shows nothing. Default none.
+    /// Comment lines written at the end of the file (after its last line, past the `M2` or
+    /// closing `%` where the controller stops reading), each as a `;` comment. At the end
+    /// they leave the numbers of the program's lines unchanged up to the first smoothed
+    /// one, which a program may read (`#<_line>`) and a controller's messages quote.
+    /// Default none.
     pub header: Option<String>,
 }
 
@@ -228,7 +231,6 @@ pub fn rewrite(
     };
     let extra_mask = program.toolpath.extra_axes_mask;
     let mut s: Vec<u8> = Vec::with_capacity(src.len() + src.len() / 4 + 256);
-    let mut header_done = opts.header.is_none();
     let write_header = |s: &mut Vec<u8>| {
         if let Some(h) = &opts.header {
             for l in h.lines() {
@@ -260,11 +262,6 @@ pub fn rewrite(
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
-        let percent_first = text.iter().find(|c| !c.is_ascii_whitespace()) == Some(&b'%');
-        if !(header_done || i == 0 && percent_first) {
-            write_header(&mut s);
-            header_done = true;
-        }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
                 Region::open(&mut s, eol, info, first_move(i), extra_mask, opts)
@@ -303,18 +300,15 @@ pub fn rewrite(
             if !last_line || src.ends_with(b"\n") {
                 s.push(b'\n');
             }
-            if i == 0 && !header_done {
-                write_header(&mut s);
-                header_done = true;
-            }
         }
     }
     if let Some(r) = region.take() {
         r.close(&mut s, eol);
     }
-    if !header_done {
-        write_header(&mut s);
+    if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
+        s.extend_from_slice(eol.as_bytes());
     }
+    write_header(&mut s);
     Ok(s)
 }
 

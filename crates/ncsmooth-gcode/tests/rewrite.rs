@@ -314,3 +314,32 @@ fn subroutines_after_the_main_program_keep_their_lines() {
     assert!(dev.output_to_programmed_mm <= 1e-5 && dev.vertex_to_output_mm <= 1e-5);
     assert!(q.toolpath.moves().count() > p.toolpath.moves().count());
 }
+
+/// The header goes after the program's last line, so every line before the first smoothed
+/// one keeps its number (`#<_line>` reads it; LinuxCNC's return-value test prints it), also
+/// with an opening `%` and a last line without a newline.
+#[test]
+fn the_header_goes_at_the_end_and_line_numbers_stay() {
+    for src in [
+        "%\n(DEBUG, line #<_line>)\nG0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\n%",
+        "(DEBUG, line #<_line>)\r\nG0 X0 Y0 F100\r\nG1 X1\r\nG1 X2 Y1\r\nM2\r\n",
+    ] {
+        let p = parse(src).unwrap();
+        let opts = RewriteOptions::new(4, 1e-4).with_header("made by\nncsmooth");
+        let same =
+            String::from_utf8(rewrite(src.as_bytes(), &p, &p.toolpath, &opts).unwrap()).unwrap();
+        let eol = if src.contains('\r') { "\r\n" } else { "\n" };
+        let header = format!("; made by{eol}; ncsmooth{eol}");
+        let newline = if src.ends_with('\n') { "" } else { eol };
+        assert_eq!(same, format!("{src}{newline}{header}"));
+        let cut = halves(&p.toolpath);
+        let text = String::from_utf8(rewrite(src.as_bytes(), &p, &cut, &opts).unwrap()).unwrap();
+        let first_lines: Vec<&str> = src.lines().take(2).collect();
+        assert_eq!(
+            text.lines().take(2).collect::<Vec<_>>(),
+            first_lines,
+            "{text}"
+        );
+        assert!(text.ends_with(&header), "{text:?}");
+    }
+}
