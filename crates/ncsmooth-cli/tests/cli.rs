@@ -649,7 +649,7 @@ fn smooth_measures_the_written_text() {
     assert_eq!(deviation(), 0.0);
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(
-        text.ends_with("G21 G90\nG0 X0 Y0\nG1 X1.44 Y0 F600\nG1 X1.44 Y1.44\n"),
+        text.starts_with("G21 G90\nG0 X0 Y0\nG1 X1.44 Y0 F600\nG1 X1.44 Y1.44\n; ncsmooth"),
         "{text}"
     );
     // A smoothed corner written with 1 decimal: the measured deviation includes the
