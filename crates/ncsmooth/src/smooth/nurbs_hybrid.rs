@@ -198,13 +198,9 @@ fn stub_length(
 }
 
 /// Items of one run: stubs, fitted curves (and fallback chords).
-fn run_items(
-    chain: &Chain<'_>,
-    run: Run,
-    opts: &SmoothOptions,
-    report: &mut SmoothReport,
-    items: &mut Vec<Item>,
-) {
+fn run_items(chain: &Chain<'_>, run: Run, opts: &SmoothOptions) -> RunItems {
+    let mut out = RunItems::default();
+    let items = &mut out.items;
     let moves = chain.moves;
     let no = &opts.nurbs;
     let line_of = |i: usize| match &moves[i].segment {
@@ -313,9 +309,7 @@ fn run_items(
     }
     for p in pieces {
         if p.fitted {
-            report.runs_fitted += 1;
-            report.points_per_run.push(p.b - p.a + 1);
-            report.fit_deviation_per_run_mm.push(p.deviation_mm);
+            out.fitted.push((p.b - p.a + 1, p.deviation_mm));
         }
         items.push(Item::Fixed {
             segment: p.segment,
@@ -333,6 +327,15 @@ fn run_items(
             share: 1.0,
         });
     }
+    out
+}
+
+/// What [`run_items`] makes of a run: its items, and the points and measured deviation of
+/// each fitted curve (for the report).
+#[derive(Default)]
+struct RunItems {
+    items: Vec<Item>,
+    fitted: Vec<(usize, f64)>,
 }
 
 /// `--method nurbs` on one chain.
@@ -348,13 +351,22 @@ pub fn smooth_nurbs(
     };
     let runs = screen(chain, screening, opts.tol_mm);
     let mut items: Vec<Item> = Vec::with_capacity(chain.moves.len());
-    let mut next_run = runs.iter().peekable();
+    // The runs are fitted independently: on all cores, then put in place in order.
+    let fitted = crate::par::map(runs.len(), super::run_mode::PARALLEL_MIN_RUNS, |k| {
+        run_items(chain, runs[k], opts)
+    });
+    let mut next_run = runs.iter().zip(fitted).peekable();
     let mut i = 0;
     while i < chain.moves.len() {
-        if let Some(r) = next_run.peek().filter(|r| r.first == i) {
-            run_items(chain, **r, opts, report, &mut items);
+        if let Some((r, _)) = next_run.peek().filter(|(r, _)| r.first == i) {
             i = r.last + 1;
-            next_run.next();
+            let (_, done) = next_run.next().expect("peeked");
+            for (points, dev) in done.fitted {
+                report.runs_fitted += 1;
+                report.points_per_run.push(points);
+                report.fit_deviation_per_run_mm.push(dev);
+            }
+            items.extend(done.items);
             continue;
         }
         match &chain.moves[i].segment {

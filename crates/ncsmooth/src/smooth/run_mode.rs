@@ -53,6 +53,9 @@ pub const TRIG_LAMBDA: f64 = 1.0;
 /// follow it.
 pub const TRIG_BAND_MARGIN: f64 = 0.01;
 
+/// Fewest runs in a chain for fitting them on several threads.
+pub const PARALLEL_MIN_RUNS: usize = 16;
+
 /// How the run curves are carried.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
@@ -334,14 +337,16 @@ pub(crate) fn rewrite_runs(
     let mut pieces: Vec<OutPiece> = Vec::with_capacity(moves.len());
     let mut any = false;
     let mut next = 0;
-    for r in runs {
-        let curve = fit_run(chain, r, opts, family).and_then(|f| {
-            let segs = match family {
-                Family::Bezier => Some(bezier_pieces(&f)),
-                Family::Trig => trig_pieces(&f, tol, accuracy),
-            }?;
-            Some((f, segs))
-        });
+    // The fits are independent: made on all cores, then put in place in order.
+    let curves = crate::par::map(runs.len(), PARALLEL_MIN_RUNS, |k| {
+        let f = fit_run(chain, runs[k], opts, family)?;
+        let segs = match family {
+            Family::Bezier => Some(bezier_pieces(&f)),
+            Family::Trig => trig_pieces(&f, tol, accuracy),
+        }?;
+        Some((f, segs))
+    });
+    for (&r, curve) in runs.iter().zip(curves) {
         let Some((f, segs)) = curve else {
             continue;
         };
