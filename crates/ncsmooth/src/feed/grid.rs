@@ -267,6 +267,9 @@ fn move_len(seg: &Segment) -> f64 {
         Segment::Arc(a) => a.length(),
         // The spline's weights once, not at every node.
         Segment::Trig(c) => arclen_adaptive(&PreparedTrig::new(c), 0.0, 1.0, ARCLEN_ACCURACY_MM),
+        // Span by span, split at the knots where the speed's derivatives jump (equal
+        // parameter pieces cut spans of non-uniform knots and recurse deep there).
+        Segment::Nurbs(n) => crate::geom::ParamCurveArclen::arclen(n.as_ref(), ARCLEN_ACCURACY_MM),
         _ => {
             let mut s = 0.0;
             let n = spans(seg);

@@ -269,8 +269,35 @@ pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
     match seg {
         // The spline's weights once, not at every node.
         Segment::Trig(c) => arclen_gk7(&PreparedTrig::new(c), a, b, STEP_ARCLEN_ACCURACY_MM),
+        Segment::Nurbs(n) => nurbs_step_arclen(seg, n, a, b),
         _ => arclen_gk7(seg, a, b, STEP_ARCLEN_ACCURACY_MM),
     }
+}
+
+/// [`step_arclen`] of a NURBS: the step split at the knots inside it, where the speed's
+/// derivatives jump (a rule across a knot converges slowly and subdivides deep), each
+/// piece to its share of [`STEP_ARCLEN_ACCURACY_MM`].
+fn nurbs_step_arclen(seg: &Segment, n: &crate::geom::Nurbs, a: f64, b: f64) -> f64 {
+    if b <= a {
+        return 0.0;
+    }
+    let (ua, ub) = (n.param(a), n.param(b));
+    let knots = n.knots();
+    let first = knots.partition_point(|&k| k <= ua);
+    let inside = knots[first..].partition_point(|&k| k < ub);
+    if inside == 0 {
+        return arclen_gk7(seg, a, b, STEP_ARCLEN_ACCURACY_MM);
+    }
+    let share = STEP_ARCLEN_ACCURACY_MM / (inside + 1) as f64;
+    let (mut t, mut sum) = (a, 0.0);
+    for &k in &knots[first..first + inside] {
+        let tk = n.t_of(k);
+        if tk > t {
+            sum += arclen_gk7(seg, t, tk, share);
+            t = tk;
+        }
+    }
+    sum + arclen_gk7(seg, t, b, share)
 }
 
 /// A curve the interpolator steps on: a [`Segment`], a [`PreparedTrig`] (a

@@ -880,3 +880,40 @@ proptest! {
         prop_assert!(planned);
     }
 }
+
+/// The arc length of a step on a NURBS, split at the knots inside it, matches a fine
+/// quadrature of the whole step (steps inside one span, across one knot and across many).
+#[test]
+fn nurbs_step_arclen_across_knots() {
+    use crate::geom::{arclen_adaptive, Nurbs};
+    let ctrl: Vec<Vec3> = (0..12)
+        .map(|i| {
+            let x = i as f64;
+            Vec3::new(x * x * 0.3, (x * 1.7).sin() * 4.0, 0.1 * x)
+        })
+        .collect();
+    // Non-uniform knots: chord-length-like spans of very different sizes.
+    let mut knots = vec![0.0; 4];
+    let mut k = 0.0;
+    for i in 0..8 {
+        k += 0.2 + (i as f64 * 2.3).sin().abs();
+        knots.push(k);
+    }
+    knots.extend([k + 1.0; 4]);
+    let seg = Segment::Nurbs(Box::new(Nurbs::bspline(3, ctrl, knots).unwrap()));
+    for (a, b) in [
+        (0.0, 1.0),
+        (0.1, 0.13),
+        (0.31, 0.52),
+        (0.2, 0.2000001),
+        (0.9, 1.0),
+    ] {
+        let want = arclen_adaptive(&seg, a, b, 1e-14);
+        let got = step_arclen(&seg, a, b);
+        assert!(
+            (got - want).abs() <= STEP_ARCLEN_ACCURACY_MM,
+            "{a} {b}: {got} {want}"
+        );
+    }
+    assert_eq!(step_arclen(&seg, 0.5, 0.4), 0.0);
+}
