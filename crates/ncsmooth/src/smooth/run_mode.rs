@@ -41,8 +41,10 @@ use crate::geom::{
 use crate::path::Move;
 use crate::verify::{deviation_segments, DEGENERATE_MM};
 
-/// Share of the tolerance used by the accuracy of the fits' measurements.
-pub const MEASURE_SHARE: f64 = 0.01;
+/// Share of the tolerance used by the accuracy of the fits' measurements (a fit is
+/// accepted when measured + accuracy <= tol; the band's dense check holds the curve to
+/// `tol - 2 accuracy`, still outside the band of [`super::band_fit::BandFitOptions`]).
+pub const MEASURE_SHARE: f64 = 0.02;
 /// Share of a line left to the corner transition at a run end that meets a corner.
 pub const STUB_SHARE: f64 = 0.5;
 /// Parameter window of the trigonometric run segments ([`trig_window`]).
