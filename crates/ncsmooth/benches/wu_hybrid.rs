@@ -4,7 +4,7 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use ncsmooth::geom::interp::{interpolate, Parametrization};
+use ncsmooth::geom::global_interp::{interpolate, Parametrization};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions};
 use ncsmooth::{Toolpath, Vec3};
 use std::hint::black_box;

@@ -1,5 +1,5 @@
 //! Dumps the control points and knots of our global cubic interpolation (NURBS Book A9.1,
-//! `ncsmooth::geom::interp::interpolate`) as JSON, for comparison with geomdl
+//! `ncsmooth::geom::global_interp::interpolate`) as JSON, for comparison with geomdl
 //! (`scripts/geomdl_compare.py`).
 //!
 //! Usage: `interp_dump POINTS.txt [--centripetal] [--reps N]`; POINTS.txt holds one point
@@ -7,7 +7,7 @@
 //! "seconds": best time of N runs}` on stdout.
 #![forbid(unsafe_code)]
 
-use ncsmooth::geom::interp::{interpolate, Parametrization};
+use ncsmooth::geom::global_interp::{interpolate, Parametrization};
 use ncsmooth::Vec3;
 use std::time::Instant;
 

@@ -5,10 +5,11 @@
 mod arc;
 pub mod banded;
 mod cubic_bez;
-pub mod interp;
+pub mod global_interp;
 mod line;
 mod nurbs;
 mod segment;
+pub mod step_arclen;
 mod traits;
 mod trig_spline;
 mod vec3;

@@ -76,6 +76,7 @@ pub use setpoints::{
 pub use sink::{FnSink, Measured, NullSink, PrintedRow, SetpointSink};
 
 use crate::feed::PathIndex;
+pub use crate::geom::step_arclen::{step_arclen, STEP_ARCLEN_ACCURACY_MM};
 use crate::geom::{
     arclen_adaptive, arclen_gk7, curvature_vec_from, CubicBez, ParamCurve, ParamCurveDeriv,
     PreparedTrig, Segment, Vec3,
@@ -93,8 +94,6 @@ const CHORD_ROUNDING_ULPS: f64 = 8.0;
 /// it (a step around more than ~170 degrees of a tiny curve) the step is solved on arc
 /// length.
 const MAX_HALF_ANGLE: f64 = 1.5;
-/// Accuracy (mm) of the arc length of one step.
-pub const STEP_ARCLEN_ACCURACY_MM: f64 = 1e-11;
 /// Largest difference (mm) between the arc length a step travels and the planned one
 /// before the step is corrected on arc length: the printing resolution of the setpoints
 /// (1e-9 mm is 4e-3 mm/s^2 of finite-difference acceleration at T = 1 ms).
@@ -254,50 +253,6 @@ fn gauss(nodes: &[(f64, f64)], d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> f64 {
         .map(|&(x, w)| w * d(m + h * x).norm())
         .sum::<f64>()
         * h
-}
-
-/// Arc length over one step: [`arclen_gk7`] at [`STEP_ARCLEN_ACCURACY_MM`] (7-point
-/// Gauss-Kronrod checked against its embedded 3-point Gauss rule, then against its two
-/// halves, adaptive where those disagree: a step across a tight bend or a zero-speed
-/// end). Seven evaluations of `P'` on almost every step, where the former check (5-point
-/// Gauss-Legendre against its two halves) took fifteen on all.
-pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
-    // Lines and arcs (helices included) have constant parametric speed: exact.
-    if let Segment::Line(_) | Segment::Arc(_) = seg {
-        return crate::geom::ParamCurveArclen::arclen(seg, 0.0) * (b - a);
-    }
-    match seg {
-        // The spline's weights once, not at every node.
-        Segment::Trig(c) => arclen_gk7(&PreparedTrig::new(c), a, b, STEP_ARCLEN_ACCURACY_MM),
-        Segment::Nurbs(n) => nurbs_step_arclen(seg, n, a, b),
-        _ => arclen_gk7(seg, a, b, STEP_ARCLEN_ACCURACY_MM),
-    }
-}
-
-/// [`step_arclen`] of a NURBS: the step split at the knots inside it, where the speed's
-/// derivatives jump (a rule across a knot converges slowly and subdivides deep), each
-/// piece to its share of [`STEP_ARCLEN_ACCURACY_MM`].
-fn nurbs_step_arclen(seg: &Segment, n: &crate::geom::Nurbs, a: f64, b: f64) -> f64 {
-    if b <= a {
-        return 0.0;
-    }
-    let (ua, ub) = (n.param(a), n.param(b));
-    let knots = n.knots();
-    let first = knots.partition_point(|&k| k <= ua);
-    let inside = knots[first..].partition_point(|&k| k < ub);
-    if inside == 0 {
-        return arclen_gk7(seg, a, b, STEP_ARCLEN_ACCURACY_MM);
-    }
-    let share = STEP_ARCLEN_ACCURACY_MM / (inside + 1) as f64;
-    let (mut t, mut sum) = (a, 0.0);
-    for &k in &knots[first..first + inside] {
-        let tk = n.t_of(k);
-        if tk > t {
-            sum += arclen_gk7(seg, t, tk, share);
-            t = tk;
-        }
-    }
-    sum + arclen_gk7(seg, t, b, share)
 }
 
 /// A curve the interpolator steps on: a [`Segment`], a [`PreparedTrig`] (a

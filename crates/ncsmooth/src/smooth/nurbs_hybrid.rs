@@ -4,7 +4,7 @@
 //!    micro-lines that sample a smooth curve.
 //! 2. **Fitting** (section II.A, eq. 5): each run becomes a cubic B-spline (a NURBS with
 //!    unit weights) by global interpolation through its points
-//!    ([`crate::geom::interp`], NURBS Book A9.1): chord-length parameters (centripetal as an
+//!    ([`crate::geom::global_interp`], NURBS Book A9.1): chord-length parameters (centripetal as an
 //!    option), averaging knots, a banded `O(n)` solve. With
 //!    [`NurbsOptions::end_tangents`] (default) the curve is constrained (NURBS Book 9.2.2) to
 //!    leave and join along its first and last chords, i.e. tangentially to the lines it
@@ -53,7 +53,7 @@ use super::band_fit::{band_fit, EndCond};
 use super::run_mode::neighbour;
 use super::screen::{screen, Run, ScreenOptions};
 use super::{Chain, ChainPos, SmoothOptions, SmoothReport};
-use crate::geom::interp::{interpolate, interpolate_with_tangents, Parametrization};
+use crate::geom::global_interp::{interpolate, interpolate_with_tangents, Parametrization};
 use crate::geom::{Line, Segment, Vec3};
 use crate::path::Move;
 use crate::verify::{deviation_segments, DEGENERATE_MM};
