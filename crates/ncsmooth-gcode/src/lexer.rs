@@ -10,14 +10,14 @@
 //!    letters, and records for every kept byte its offset in the source (for error spans).
 //!    A `(` without `)` on the same line is an [`UnclosedComment`](ParseErrorKind::UnclosedComment)
 //!    error. A leading `/` (block delete) is dropped and recorded
-//!    ([`LineBuf::block_delete`]). A line whose first character is `%` is a program
-//!    delimiter ([`LineBuf::percent`]) and is empty. The source range of the last `( )`
-//!    comment of the line is recorded ([`LineBuf::comment`]): LinuxCNC passes that one to
+//!    (`LineBuf::block_delete`). A line whose first character is `%` is a program
+//!    delimiter (`LineBuf::percent`) and is empty. The source range of the last `( )`
+//!    comment of the line is recorded (`LineBuf::comment`): LinuxCNC passes that one to
 //!    the controller (`COMMENT`, or a message for `(MSG,...)` and the other active
-//!    comments). `;` comments are recorded ([`LineBuf::semicolon`]) and never interpreted.
+//!    comments). `;` comments are recorded (`LineBuf::semicolon`) and never interpreted.
 //! 2. `read_block` splits the compacted bytes into words (a letter and a real value) and
 //!    `#n=value` / `#<name>=value` parameter assignments. O-word statements (control flow)
-//!    are read by [`crate::interp::oword`], not here. Values are numbers, `#n` references, `[ ]`
+//!    are read by `crate::interp::oword`, not here. Values are numbers, `#n` references, `[ ]`
 //!    expressions or unary functions ([`crate::expr`]). Numbers are `digits[.digits]` or
 //!    `.digits` (no exponent, as NGC) and are converted with `str::parse::<f64>` on the
 //!    digits, so `X1234.56789` is exactly the nearest `f64`.

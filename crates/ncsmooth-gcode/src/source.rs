@@ -1,5 +1,5 @@
 //! What the interpreter learned about each physical line, for writers that rewrite the
-//! program in place ([`crate::rewrite`]): which lines may be replaced by smoothed motion,
+//! program in place ([`crate::rewrite()`]): which lines may be replaced by smoothed motion,
 //! and the modal state a replacement must restore after itself.
 
 use crate::Plane;

@@ -23,11 +23,11 @@
 //!   (with a comment) because the writer always writes absolute E. After an event, extra
 //!   axes are rewritten on the next move (`G92 E0` may have reset them) and after an event
 //!   with an `F` word the feed is rewritten.
-//! * [`EventKind::Untracked`](ncsmooth::path::EventKind::Untracked) events (a G53 move,
+//! * [`EventKind::Untracked`] events (a G53 move,
 //!   a G28 return, a move from an unknown position) are written as their text (the
 //!   programmed block); the next move writes all its axes.
 //!
-//! The same motion writer ([`MotionWriter`]) serves [`crate::rewrite()`], which writes in
+//! The same motion writer (`MotionWriter`) serves [`crate::rewrite()`], which writes in
 //! the program's own units and modes and never writes an axis whose position is unknown.
 //!
 //! Numbers use `decimals` digits after the point (default 4), trailing zeros removed,

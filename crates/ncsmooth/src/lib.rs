@@ -5,7 +5,7 @@
 //! interpolated at a fixed period, and every result measured.
 //!
 //! The pipeline, each layer importing only those before it: geometry ([`geom`]) -> the
-//! path model ([`path`]) -> verification ([`verify`]) -> smoothing ([`smooth`]) -> feed
+//! path model ([`path`]) -> verification ([`verify`]) -> smoothing ([`mod@smooth`]) -> feed
 //! planning ([`feed`]) -> interpolation into setpoints ([`interp`]). Reading and writing
 //! G-code is the crate `ncsmooth-gcode`.
 //!

@@ -11,7 +11,7 @@
 //! (G43, G43.1, G43.2, G49). ncsmooth does not know the stored offsets, the tool table or
 //! the home positions (G28/G30) of the machine that will run the program, so each of them
 //! is an `Option`: `None` until the program itself sets it. The work position of each
-//! axis is known or not ([`Frames::known`]):
+//! axis is known or not (`Frames::known`):
 //!
 //! * at the start nothing is known; an axis becomes known when the program commands it
 //!   (an absolute axis word in the current frame, or `G92`/`G10 L20` naming it);
@@ -20,7 +20,7 @@
 //!   return), the new work position is recomputed through the machine position, and is
 //!   unknown unless every term before and after is known.
 //!
-//! An unknown axis keeps a placeholder value in [`Frames::pos`] (its last known value, or
+//! An unknown axis keeps a placeholder value in `Frames::pos` (its last known value, or
 //! 0), used only as a constant coordinate of the geometry of moves that do not move it;
 //! writers never write it.
 //!

@@ -3,15 +3,15 @@
 //!
 //! # Structure
 //!
-//! * [`Interp::run`] walks the physical lines with a program counter; O-word statements
-//!   ([`oword`]) move it (subroutines, loops, conditionals), and so do Fanuc-style
-//!   subprogram calls and returns ([`fanuc`]: `O<n>` programs, `M98`, `M99`).
-//! * Each line is lexed ([`crate::lexer`]), its words sorted ([`block`]) and executed in
-//!   LinuxCNC's order of execution ([`modal`]): comment, feed mode, F, S, T, the M codes
+//! * `Interp::run` walks the physical lines with a program counter; O-word statements
+//!   (`oword`) move it (subroutines, loops, conditionals), and so do Fanuc-style
+//!   subprogram calls and returns (`fanuc`: `O<n>` programs, `M98`, `M99`).
+//! * Each line is lexed ([`crate::lexer`]), its words sorted (`block`) and executed in
+//!   LinuxCNC's order of execution (`modal`): comment, feed mode, F, S, T, the M codes
 //!   (tool change, spindle, coolant, overrides, I/O, user codes), dwell, plane, units,
 //!   cutter compensation, tool length, coordinate system, path control, distance modes,
 //!   retract mode, the non-modal group (G10, G28, G30, G52, G92), motion ([`motion`],
-//!   canned cycles in [`cycles`], splines in [`splines`]), and last the program stops.
+//!   canned cycles in `cycles`, splines in `splines`), and last the program stops.
 //! * Positions and offsets live in [`frames`]: what ncsmooth cannot know (stored offsets,
 //!   the tool table, home positions) is unknown, and so is every axis that depends on it
 //!   until the program commands it again. Motion from or to an unknown position becomes
@@ -27,7 +27,7 @@
 //! For every physical line the interpreter records ([`crate::source::SourceMap`]) whether
 //! it was executed, whether its motion may be replaced by smoothed motion (executed once at
 //! the top level, nothing else on the line), and the modal state after it, so that
-//! [`crate::rewrite`] can copy every other line verbatim. Moves of lines that may not be
+//! [`crate::rewrite()`] can copy every other line verbatim. Moves of lines that may not be
 //! replaced are [`Move::pinned`](ncsmooth::path::Move::pinned): the smoothing leaves them
 //! exactly as programmed. A main program ended by `M99` (which LinuxCNC's task runs again
 //! and again) is pinned whole.

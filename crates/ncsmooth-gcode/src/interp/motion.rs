@@ -1,6 +1,6 @@
 //! Motion: G0/G1 lines, G2/G3 arcs (any plane, helical, multi-turn, I/J/K or R, full
 //! circles with no axis word), polar words, G53 moves, G28/G30 returns; dispatch to the
-//! canned cycles ([`super::cycles`]) and splines ([`super::splines`]).
+//! canned cycles (`super::cycles`) and splines (`super::splines`).
 //!
 //! # Targets and what is known
 //!

@@ -6,7 +6,7 @@
 //! subdivision is needed). Arcs and curves are first cut uniformly in their parameter
 //! (halves no longer than about [`MAX_CURVE_DS_MM`], at least [`MIN_CURVE_INTERVALS`] per
 //! move, per knot span for NURBS); their arc lengths come from the chords and end tangents
-//! of the halves ([`arc_from_chord`]), the move's total from adaptive quadrature at
+//! of the halves (`arc_from_chord`), the move's total from adaptive quadrature at
 //! [`ARCLEN_ACCURACY_MM`] (the last interval takes the remainder).
 //!
 //! ## Refinement of curved intervals
@@ -651,7 +651,7 @@ pub struct GridPoint {
 /// `|a_j| <= A_j` for every axis, and the curvature vector is normal to the tangent
 /// (`T . K = 0`, `|T| = 1`), so `u = T . a` and `|u| <= sum_j |T_j| A_j`, whatever the
 /// speed and the curvature: `A_j` on a path along axis `j`, and never more than
-/// `|A| = sqrt(sum_j A_j^2)` ([`u_global`]). The bound is taken for any tangent within
+/// `|A| = sqrt(sum_j A_j^2)` (`u_global`). The bound is taken for any tangent within
 /// [`MAX_TURN_DEG`] of `t` (a change `e` of the unit tangent adds at most
 /// `|e| |A| <= turn |A|`).
 pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {

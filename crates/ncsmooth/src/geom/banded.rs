@@ -1,6 +1,6 @@
 //! Banded linear systems: Gaussian elimination with partial pivoting on a matrix stored by
 //! its band, in `O(n kl (kl + ku))` time and `O(n (2 kl + ku + 1))` memory (the LAPACK
-//! `gbsv` scheme). Used by the global curve interpolation ([`super::interp`]), whose
+//! `gbsv` scheme). Used by the global curve interpolation ([`super::global_interp`]), whose
 //! collocation matrix has `p + 1` non-zeros per row around the diagonal.
 //!
 //! Storage: row `i` keeps the absolute columns `i - kl ..= i + kl + ku`; the extra `kl`

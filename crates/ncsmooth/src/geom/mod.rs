@@ -1,6 +1,6 @@
 //! Geometry: a `Copy` vector type, the curve capability traits and the curve kinds
 //! (line, arc/helix, cubic Bézier, NURBS, cubic trigonometric spline), gathered in the
-//! [`Segment`] enum; global curve interpolation ([`interp`]) on a banded solver ([`banded`]).
+//! [`Segment`] enum; global curve interpolation ([`global_interp`]) on a banded solver ([`banded`]).
 
 mod arc;
 pub mod banded;

@@ -24,7 +24,7 @@
 use super::setpoints::{printed, ExtraFdMeter, FdMeter, Jump, Setpoint, POSITION_DECIMALS};
 use std::io;
 
-/// A consumer of setpoint rows, in time order (see the [module doc](self)).
+/// A consumer of setpoint rows, in time order (see the module doc).
 pub trait SetpointSink {
     /// Called once before the first row with the extra-axis columns the program uses:
     /// bit `i` set for [`crate::path::EXTRA_AXIS_NAMES`]`[i]`. Default: nothing.
@@ -140,7 +140,7 @@ impl SetpointSink for NullSink {
     }
 }
 
-/// The measuring adapter: measures every row as printed (see the [module doc](self)),
+/// The measuring adapter: measures every row as printed (see the module doc),
 /// then passes it on to `inner` unchanged.
 pub struct Measured<S> {
     /// The sink the rows go to.

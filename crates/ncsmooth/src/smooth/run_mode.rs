@@ -24,10 +24,12 @@
 //! * [`Family::Bezier`] (Guo): the cubic B-spline itself, cut at its knots into cubic
 //!   Béziers (NURBS Book A5.6), as Guo's transitions are emitted: C2 inside the run, G2 to
 //!   the stubs.
-//! * [`Family::Trig`] (Tao): a cubic trigonometric spline through the B-spline's points at
-//!   its knots, each segment in Tao's Hermite form (`k = -1`, eq. 3) with the derivatives
-//!   solved for C2 continuity ([`trig_c2`]) and `lambda` chosen among [`TRIG_LAMBDAS`] for
-//!   the lowest peak curvature; measured against the band like the B-spline.
+//! * [`Family::Trig`] (Tao): one cubic trigonometric segment per cubic piece of the
+//!   B-spline, in Tao's Hermite form (`k = -1`, eq. 3) on a short parameter window
+//!   ([`trig_window`], [`TRIG_WINDOW`], `lambda = `[`TRIG_LAMBDA`]) with the piece's end
+//!   points and end derivatives: G1 at the joints and G2 up to the window's small error;
+//!   measured against the band like the B-spline (a fit a little inside the band,
+//!   [`TRIG_BAND_MARGIN`], leaves it room).
 //!
 //! A run whose fit fails stays lines, and the method handles its corners one by one as in
 //! the paper.

@@ -4,7 +4,7 @@
 //!
 //! Blocks are taken in program order. Feed moves that are not pinned gather into the
 //! current chain; any other block ends it: the chain is smoothed with the method
-//! ([`super::smooth_chain`]) and its moves are handed out, followed by the block. So far
+//! (`super::smooth_chain`) and its moves are handed out, followed by the block. So far
 //! this is [`super::smooth`], and the output is the same block for block.
 //!
 //! A chain longer than [`StreamOptions::window_moves`] is cut: the longest line or arc among

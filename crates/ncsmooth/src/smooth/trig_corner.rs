@@ -353,8 +353,8 @@ const DEVIATION_LEN: usize = (180.0 / DEVIATION_STEP_DEG) as usize + 1;
 const DEVIATION_TABLE_ALLOWANCE: f64 = 1e-4;
 
 /// The unit-scale deviation of the inside transition for a turn of `beta` radians, with
-/// its table `rho` ([`round_rho`]): a table every [`DEVIATION_STEP_DEG`] (entries computed
-/// on first use), interpolated linearly and raised by [`DEVIATION_TABLE_ALLOWANCE`] so it
+/// its table `rho` ([`round_rho`]): a table every `DEVIATION_STEP_DEG` (entries computed
+/// on first use), interpolated linearly and raised by `DEVIATION_TABLE_ALLOWANCE` so it
 /// never underestimates. Measuring every corner (64 samples and a golden-section
 /// refinement) took most of the method's time on large files.
 pub fn corner_deviation(beta: f64) -> f64 {
