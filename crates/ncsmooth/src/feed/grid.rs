@@ -74,7 +74,7 @@ use super::limits::{
 use super::{PlanOptions, StopReason};
 use crate::geom::{
     arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveCurvature, ParamCurveDeriv,
-    PreparedTrig, Segment, Vec3,
+    PreparedNurbs, PreparedTrig, Segment, Vec3,
 };
 use crate::path::{Block, EventKind, ExtraAxes, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
@@ -269,7 +269,16 @@ fn move_len(seg: &Segment) -> f64 {
         Segment::Trig(c) => arclen_adaptive(&PreparedTrig::new(c), 0.0, 1.0, ARCLEN_ACCURACY_MM),
         // Span by span, split at the knots where the speed's derivatives jump (equal
         // parameter pieces cut spans of non-uniform knots and recurse deep there).
-        Segment::Nurbs(n) => crate::geom::ParamCurveArclen::arclen(n.as_ref(), ARCLEN_ACCURACY_MM),
+        Segment::Nurbs(n) => match PreparedNurbs::new(n) {
+            Some(p) => {
+                let br = p.breaks();
+                let share = ARCLEN_ACCURACY_MM / (br.len() - 1) as f64;
+                br.windows(2)
+                    .map(|w| arclen_adaptive(&p, w[0], w[1], share))
+                    .sum()
+            }
+            None => crate::geom::ParamCurveArclen::arclen(n.as_ref(), ARCLEN_ACCURACY_MM),
+        },
         _ => {
             let mut s = 0.0;
             let n = spans(seg);
@@ -1056,6 +1065,15 @@ impl<'p, 'a> GridGen<'p, 'a> {
                             geo_at(seg, &prepared, t)
                         })
                     }
+                    // A cubic B-spline as its Bézier pieces (no knot search per sample).
+                    Segment::Nurbs(n) => match PreparedNurbs::new(n) {
+                        Some(p) => {
+                            refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| geo_at(seg, &p, t))
+                        }
+                        None => {
+                            refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| geo_at(seg, seg, t))
+                        }
+                    },
                     _ => refine(n0, true, m.vcap_mm_s, m.len, caps, &|t| geo_at(seg, seg, t)),
                 };
                 let first = (params[0].1, params[0].2);

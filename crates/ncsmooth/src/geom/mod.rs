@@ -17,7 +17,7 @@ mod vec3;
 pub use arc::Arc;
 pub use cubic_bez::CubicBez;
 pub use line::Line;
-pub use nurbs::{Nurbs, MAX_DEGREE};
+pub use nurbs::{Nurbs, PreparedNurbs, MAX_DEGREE};
 pub use segment::Segment;
 pub use traits::*;
 pub use trig_spline::{

@@ -7,6 +7,7 @@
 //! The curve is parametrised on `t in [0, 1]`, mapped linearly onto the knot domain
 //! `[U[p], U[n]]`; derivatives are with respect to `t`.
 
+use super::cubic_bez::CubicBez;
 use super::line::Line;
 use super::traits::*;
 use super::vec3::{Aabb, Vec3};
@@ -299,6 +300,22 @@ impl Nurbs {
         }
     }
 
+    /// The cubic Bézier pieces of a non-rational cubic B-spline (all weights 1), one per
+    /// non-empty knot span, in order (A5.6): the same curve, each piece a polynomial that
+    /// evaluates without a knot search. `None` for another degree or a rational curve.
+    pub fn cubic_bezier_pieces(&self) -> Option<Vec<CubicBez>> {
+        if self.degree != 3 || self.weights.iter().any(|&w| w != 1.0) {
+            return None;
+        }
+        let h = |q: &Hom| Vec3::new(q[0] / q[3], q[1] / q[3], q[2] / q[3]);
+        Some(
+            self.bezier_pieces()
+                .iter()
+                .map(|q| CubicBez::new(h(&q[0]), h(&q[1]), h(&q[2]), h(&q[3])))
+                .collect(),
+        )
+    }
+
     /// A5.6: the rational Bézier pieces (homogeneous control points, `degree + 1` each),
     /// one per non-empty knot span, in order.
     pub fn bezier_pieces(&self) -> Vec<Vec<[f64; 4]>> {
@@ -583,6 +600,73 @@ impl Flatten for Nurbs {
     }
 }
 
+/// A non-rational cubic [`Nurbs`] as its Bézier pieces ([`Nurbs::cubic_bezier_pieces`]),
+/// for code that evaluates one curve many times (the interpolator's steps, the planning
+/// grid): a point or derivative is a binary search over the breakpoints and a cubic
+/// polynomial, instead of a knot search and de Boor's recurrences. The same curve and
+/// parameter `t` as the NURBS (values equal up to rounding, about 1e-15 relative).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PreparedNurbs {
+    pieces: Vec<CubicBez>,
+    /// `t` of the pieces' ends: `breaks[i]..breaks[i + 1]` is piece `i`.
+    breaks: Vec<f64>,
+}
+
+impl PreparedNurbs {
+    /// Prepares `n`; `None` unless it is a non-rational cubic.
+    pub fn new(n: &Nurbs) -> Option<PreparedNurbs> {
+        let pieces = n.cubic_bezier_pieces()?;
+        let breaks: Vec<f64> = n.breaks().into_iter().map(|k| n.t_of(k)).collect();
+        (breaks.len() == pieces.len() + 1 && !pieces.is_empty())
+            .then_some(PreparedNurbs { pieces, breaks })
+    }
+    /// The breakpoints in `t` (piece ends), in order.
+    pub fn breaks(&self) -> &[f64] {
+        &self.breaks
+    }
+    /// The piece holding `t`, its local parameter and `dt_local / dt`.
+    #[inline]
+    fn locate(&self, t: f64) -> (&CubicBez, f64, f64) {
+        let n = self.pieces.len();
+        let i = self.breaks[1..n].partition_point(|&b| b <= t);
+        let (a, b) = (self.breaks[i], self.breaks[i + 1]);
+        let h = b - a;
+        (&self.pieces[i], ((t - a) / h).clamp(0.0, 1.0), 1.0 / h)
+    }
+}
+
+impl ParamCurve for PreparedNurbs {
+    #[inline]
+    fn eval(&self, t: f64) -> Vec3 {
+        let (c, s, _) = self.locate(t);
+        c.eval(s)
+    }
+    fn start(&self) -> Vec3 {
+        self.pieces[0].p0
+    }
+    fn end(&self) -> Vec3 {
+        self.pieces[self.pieces.len() - 1].p3
+    }
+}
+
+impl ParamCurveDeriv for PreparedNurbs {
+    #[inline]
+    fn deriv(&self, t: f64) -> Vec3 {
+        let (c, s, k) = self.locate(t);
+        c.deriv(s) * k
+    }
+    #[inline]
+    fn deriv2(&self, t: f64) -> Vec3 {
+        let (c, s, k) = self.locate(t);
+        c.deriv2(s) * (k * k)
+    }
+    #[inline]
+    fn ders(&self, t: f64) -> [Vec3; 3] {
+        let (c, s, k) = self.locate(t);
+        [c.eval(s), c.deriv(s) * k, c.deriv2(s) * (k * k)]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -728,5 +812,30 @@ mod tests {
             vec![0.0, 0.0, 1.0, 1.0]
         )
         .is_none());
+    }
+
+    #[test]
+    fn prepared_nurbs_is_the_same_curve() {
+        // The wavy curve's control points and knots (a double knot at 0.3), unit weights.
+        let w = wavy();
+        let c = Nurbs::bspline(3, w.ctrl().to_vec(), w.knots().to_vec()).unwrap();
+        let p = PreparedNurbs::new(&c).unwrap();
+        assert_eq!(p.breaks().len(), 6);
+        for k in 0..=400 {
+            let t = k as f64 / 400.0;
+            let (a, b) = (c.ders(t), p.ders(t));
+            for d in 0..3 {
+                let scale = a[d].norm().max(1.0);
+                assert!(
+                    a[d].dist(b[d]) <= 1e-11 * scale,
+                    "t {t} d{d}: {:?} {:?}",
+                    a[d],
+                    b[d]
+                );
+            }
+        }
+        assert_eq!(p.start(), c.start());
+        assert!(p.end().dist(c.end()) < 1e-12);
+        assert!(PreparedNurbs::new(&w).is_none(), "rational");
     }
 }

@@ -79,7 +79,7 @@ use crate::feed::PathIndex;
 pub use crate::geom::step_arclen::{step_arclen, STEP_ARCLEN_ACCURACY_MM};
 use crate::geom::{
     arclen_adaptive, arclen_gk7, curvature_vec_from, CubicBez, ParamCurve, ParamCurveDeriv,
-    PreparedTrig, Segment, Vec3,
+    PreparedNurbs, PreparedTrig, Segment, Vec3,
 };
 use crate::path::ExtraAxes;
 use serde::Serialize;
@@ -295,6 +295,28 @@ impl StepCurve for PreparedTrig {
     const DERS_ARE_CHEAP: bool = true;
 }
 
+impl StepCurve for PreparedNurbs {
+    /// Cubic pieces: as for [`CubicBez`].
+    const DERS_ARE_CHEAP: bool = true;
+    /// Split at the breakpoints inside the step, as [`step_arclen`] splits a NURBS at its
+    /// knots.
+    fn step_arclen(&self, a: f64, b: f64) -> f64 {
+        if b <= a {
+            return 0.0;
+        }
+        let br = self.breaks();
+        let first = br.partition_point(|&k| k <= a);
+        let inside = br[first..].partition_point(|&k| k < b);
+        let share = STEP_ARCLEN_ACCURACY_MM / (inside + 1) as f64;
+        let (mut t, mut sum) = (a, 0.0);
+        for &k in &br[first..first + inside] {
+            sum += arclen_gk7(self, t, k, share);
+            t = k;
+        }
+        sum + arclen_gk7(self, t, b, share)
+    }
+}
+
 impl StepCurve for CubicBez {
     /// Point and derivatives of a cubic are a few multiply-adds each: evaluating them
     /// together at every point tried costs less than evaluating the point and the
@@ -312,6 +334,8 @@ pub struct Interpolator<'p, 'a> {
     p: Vec3,
     /// The current move prepared, when it is a trigonometric spline: `(move, prepared)`.
     prepared: Option<(usize, PreparedTrig)>,
+    /// The current move as Bézier pieces, when it is a non-rational cubic NURBS.
+    prepared_nurbs: Option<(usize, PreparedNurbs)>,
     /// Point and derivatives at the current place, when the last step computed them
     /// ([`StepCurve::DERS_ARE_CHEAP`]): `(move, parameter, ders)`.
     here: Option<(usize, f64, [Vec3; 3])>,
@@ -337,6 +361,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             s: 0.0,
             p,
             prepared: None,
+            prepared_nurbs: None,
             here: None,
             jumped: false,
             stats: InterpStats::default(),
@@ -413,10 +438,25 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 self.step_curve(&prepared, len);
             } else if let Segment::CubicBez(c) = m.segment {
                 self.step_curve(c, len);
+            } else if let Some(p) = self.nurbs_pieces(m.segment) {
+                self.step_curve(&p, len);
+                self.prepared_nurbs = Some((self.cur, p));
             } else {
                 self.step_curve(m.segment, len);
             }
             return (self.p, self.extra());
+        }
+    }
+
+    /// The current move's [`PreparedNurbs`] (taken out of the cache; the caller puts it
+    /// back), when it is a non-rational cubic NURBS.
+    fn nurbs_pieces(&mut self, seg: &Segment) -> Option<PreparedNurbs> {
+        let Segment::Nurbs(n) = seg else {
+            return None;
+        };
+        match self.prepared_nurbs.take() {
+            Some((j, p)) if j == self.cur => Some(p),
+            _ => PreparedNurbs::new(n),
         }
     }
 
