@@ -89,7 +89,7 @@ fn outputs(data: &Path, dir: &Path) -> BTreeMap<String, String> {
         .filter_map(|d| std::fs::read_dir(data.join(d)).ok())
         .flatten()
         .map(|e| e.unwrap().path())
-        .filter(|p| !p.extension().is_some_and(|x| x == "md"))
+        .filter(|p| p.extension().is_none_or(|x| x != "md"))
         .collect();
     programs.sort();
     for p in programs {
