@@ -367,6 +367,7 @@ pub fn smooth(tp: &Toolpath, opts: &SmoothOptions) -> Result<Smoothed, OptionsEr
     // A stream whose windows never cut a chain.
     let whole = stream::StreamOptions {
         window_moves: usize::MAX,
+        ..Default::default()
     };
     let mut s = stream::StreamSmoother::new(opts.clone(), whole)?;
     // Corner methods replace one move by up to three (trimmed line, two curve pieces).

@@ -23,6 +23,7 @@
 use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport};
 use crate::geom::{ParamCurve, Segment};
 use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind};
+use crate::verify::deviation_segments;
 
 /// Entries kept in the per-run lists of the report.
 pub const MAX_LISTED_RUNS: usize = 10_000;
@@ -36,6 +37,30 @@ pub struct StreamOptions {
     /// of micro-lines between corners of real CAM output, which are cut only on
     /// continuous surfacing passes and spirals.
     pub window_moves: usize,
+    /// When set, every window handed out (a chain, or the part of a chain before a cut)
+    /// is measured both ways against the programmed moves of that window, to this
+    /// accuracy (mm), and the worst figures kept ([`StreamSmoother::window_check`]).
+    /// Default `None` (the CLI measures the written program instead).
+    pub verify_accuracy_mm: Option<f64>,
+}
+
+/// The two-sided deviation of the windows handed out so far, each measured against its
+/// own programmed moves ([`StreamOptions::verify_accuracy_mm`]). The programmed path of a
+/// window is a part of the whole, so these bound the whole path's deviation from above.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WindowCheck {
+    /// Windows measured.
+    pub windows: usize,
+    /// The worst window: (a) output to programmed, (b) programmed vertex to output (mm),
+    /// and the source line of the output move where the larger occurs.
+    pub worst: Option<(f64, f64, u32)>,
+}
+
+impl WindowCheck {
+    /// True when every window measured holds `tol_mm` both ways.
+    pub fn within(&self, tol_mm: f64) -> bool {
+        self.worst.is_none_or(|(a, b, _)| a.max(b) <= tol_mm)
+    }
 }
 
 impl StreamOptions {
@@ -47,6 +72,7 @@ impl Default for StreamOptions {
     fn default() -> Self {
         StreamOptions {
             window_moves: Self::DEFAULT_WINDOW_MOVES,
+            verify_accuracy_mm: None,
         }
     }
 }
@@ -84,6 +110,7 @@ pub struct StreamSmoother {
     /// Extra-axis values after the last block taken.
     last_extra: Option<ExtraAxes>,
     report: SmoothReport,
+    check: WindowCheck,
 }
 
 impl StreamSmoother {
@@ -99,7 +126,9 @@ impl StreamSmoother {
             opts,
             stream: StreamOptions {
                 window_moves: stream.window_moves.max(MIN_WINDOW_MOVES),
+                ..stream
             },
+            check: WindowCheck::default(),
             run: Vec::new(),
             run_start_extra: None,
             run_cut_before: false,
@@ -147,6 +176,32 @@ impl StreamSmoother {
         &self.report
     }
 
+    /// The windows measured so far (none unless [`StreamOptions::verify_accuracy_mm`]).
+    pub fn window_check(&self) -> WindowCheck {
+        self.check
+    }
+
+    /// Measures a window's output against its programmed moves (see [`WindowCheck`]).
+    fn measure(&mut self, programmed: &[Move], smoothed: &[Move]) {
+        let Some(accuracy) = self.stream.verify_accuracy_mm else {
+            return;
+        };
+        fn refs(ms: &[Move]) -> Vec<(&Segment, u32)> {
+            ms.iter().map(|m| (&m.segment, m.line)).collect()
+        }
+        let d = deviation_segments(&refs(smoothed), &refs(programmed), accuracy);
+        let line = if d.output_to_programmed_mm >= d.vertex_to_output_mm {
+            d.output_line
+        } else {
+            d.vertex_line
+        };
+        let c = &mut self.check;
+        c.windows += 1;
+        if c.worst.is_none_or(|(a, b, _)| d.max_mm() > a.max(b)) {
+            c.worst = Some((d.output_to_programmed_mm, d.vertex_to_output_mm, line));
+        }
+    }
+
     /// Smooths the gathered chain and hands it out.
     fn flush(&mut self, out: &mut Vec<Block>) {
         if self.run.is_empty() {
@@ -178,6 +233,7 @@ impl StreamSmoother {
         };
         self.report.chains += 1;
         let smoothed = smooth_chain(&chain, &self.opts, &mut self.report);
+        self.measure(moves, &smoothed);
         self.report.segments_emitted += smoothed.len();
         out.extend(smoothed.into_iter().map(Block::Move));
         if self.stream.window_moves != usize::MAX {
@@ -290,9 +346,14 @@ mod tests {
         Toolpath::from_polyline(&pts, Some(50.0))
     }
 
-    fn stream(tp: &Toolpath, opts: &SmoothOptions, window: usize) -> (Toolpath, SmoothReport) {
+    fn stream(
+        tp: &Toolpath,
+        opts: &SmoothOptions,
+        window: usize,
+    ) -> (Toolpath, SmoothReport, WindowCheck) {
         let so = StreamOptions {
             window_moves: window,
+            verify_accuracy_mm: Some(1e-6),
         };
         let mut s = StreamSmoother::new(opts.clone(), so).unwrap();
         let mut out = Toolpath::new(tp.start);
@@ -300,7 +361,7 @@ mod tests {
             s.push(b.clone(), &mut out.blocks);
         }
         s.finish(&mut out.blocks);
-        (out, s.report().clone())
+        (out, s.report().clone(), s.window_check())
     }
 
     /// A chain longer than the window is cut at line midpoints: every method stays within
@@ -321,8 +382,8 @@ mod tests {
                 tol_mm: 0.01,
                 ..Default::default()
             };
-            let (whole, _) = stream(&tp, &opts, usize::MAX);
-            let (cut, report) = stream(&tp, &opts, 500);
+            let (whole, _, _) = stream(&tp, &opts, usize::MAX);
+            let (cut, report, check) = stream(&tp, &opts, 500);
             let chains = if method == Method::None { 6 } else { 9 };
             assert!(
                 report.chains >= chains,
@@ -331,6 +392,11 @@ mod tests {
             );
             let d = deviation(&cut, &tp, 1e-6);
             assert!(d.within(0.01), "{method:?}: {d:?}");
+            // Each window measured against its own programmed moves bounds the whole.
+            assert!(check.windows >= report.chains, "{method:?}: {check:?}");
+            let (a, b, _) = check.worst.unwrap();
+            assert!(check.within(0.01), "{method:?}: {check:?}");
+            assert!(a.max(b) >= d.max_mm() - 1e-6, "{method:?}: {check:?} {d:?}");
             let (cw, cc) = (continuity(&whole), continuity(&cut));
             assert_eq!(cc.g0, cw.g0, "{method:?}: corners added by the cuts");
             assert_eq!(cc.gaps, 0, "{method:?}");
