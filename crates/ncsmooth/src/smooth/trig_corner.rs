@@ -667,17 +667,46 @@ fn smooth_lines(
     counts: &mut Counts,
     pieces: &mut Vec<OutPiece>,
 ) {
-    let tol = opts.tol_mm;
-    let trig = &opts.trig;
-    // Polyline without zero-length legs.
+    let poly = polyline(first, last, moves);
+    if poly.mv.is_empty() {
+        for i in first..=last {
+            pieces.push(OutPiece {
+                segment: moves[i].segment.clone(),
+                from: ChainPos::start_of(i),
+                to: ChainPos::end_of(i),
+            });
+        }
+        return;
+    }
+    let (mut kind, turn) = vertex_kinds(&poly, run_vertex, opts);
+    let (d, segs, devs) = fit_smooth_legs(&poly, &mut kind, &turn, opts);
+    report_runs(&kind, &devs, report);
+    count_vertices(&kind, &turn, opts, counts);
+    emit_legs(&poly, &kind, &d, &segs, opts, pieces);
+    // Zero-length moves after the last leg (skipped above) keep the chain's end exact.
+    let last_leg_move = *poly.mv.last().unwrap();
+    let end = *poly.v.last().unwrap();
+    for i in last_leg_move + 1..=last {
+        if moves[i].segment.end().dist(end) > 0.0 {
+            pieces.push(OutPiece {
+                segment: Segment::Line(Line::new(end, moves[i].segment.end())),
+                from: ChainPos::start_of(i),
+                to: ChainPos::end_of(i),
+            });
+        }
+    }
+}
+
+/// The polyline of lines `first..=last` without zero-length legs.
+fn polyline(first: usize, last: usize, moves: &[Move]) -> Poly {
     let mut poly = Poly {
         v: Vec::new(),
         mv: Vec::new(),
         dir: Vec::new(),
         len: Vec::new(),
     };
-    for i in first..=last {
-        let Segment::Line(l) = &moves[i].segment else {
+    for (i, m) in moves.iter().enumerate().take(last + 1).skip(first) {
+        let Segment::Line(l) = &m.segment else {
             continue;
         };
         if poly.v.is_empty() {
@@ -694,40 +723,37 @@ fn smooth_lines(
         poly.dir.push(d / n);
         poly.len.push(n);
     }
-    let legs = poly.mv.len();
-    if legs == 0 {
-        for i in first..=last {
-            pieces.push(OutPiece {
-                segment: moves[i].segment.clone(),
-                from: ChainPos::start_of(i),
-                to: ChainPos::end_of(i),
-            });
-        }
-        return;
+    poly
+}
+
+/// The kind of a corner turning by `beta` (rad) that is not inside a run.
+fn corner_kind(beta: f64, opts: &SmoothOptions) -> Kind {
+    let trig = &opts.trig;
+    let deg = beta.to_degrees();
+    if deg < opts.straight_angle_deg || deg > trig.stop_turn_deg {
+        return Kind::Fixed;
     }
-    // Vertex kinds.
+    if let CornerStyle::Loop { .. } = trig.corner {
+        if deg >= trig.loop_min_turn_deg && deg <= LOOP_MAX_TURN_DEG {
+            return Kind::Loop;
+        }
+    }
+    let rho = round_rho(beta);
+    Kind::Round(RoundShape {
+        beta,
+        rho,
+        deviation: corner_deviation(beta),
+        // Not needed to place the transition (see `round_shape` for it).
+        peak_curvature: f64::NAN,
+        inflects: false,
+    })
+}
+
+/// The kind and turn (rad) of every vertex of `poly` (the ends are fixed).
+fn vertex_kinds(poly: &Poly, run_vertex: &[bool], opts: &SmoothOptions) -> (Vec<Kind>, Vec<f64>) {
+    let legs = poly.mv.len();
     let mut kind = vec![Kind::Fixed; legs + 1];
     let mut turn = vec![0.0; legs + 1];
-    let corner_kind = |beta: f64| -> Kind {
-        let deg = beta.to_degrees();
-        if deg < opts.straight_angle_deg || deg > trig.stop_turn_deg {
-            return Kind::Fixed;
-        }
-        if let CornerStyle::Loop { .. } = trig.corner {
-            if deg >= trig.loop_min_turn_deg && deg <= LOOP_MAX_TURN_DEG {
-                return Kind::Loop;
-            }
-        }
-        let rho = round_rho(beta);
-        Kind::Round(RoundShape {
-            beta,
-            rho,
-            deviation: corner_deviation(beta),
-            // Not needed to place the transition (see `round_shape` for it).
-            peak_curvature: f64::NAN,
-            inflects: false,
-        })
-    };
     for j in 1..legs {
         let (a, b) = (poly.dir[j - 1], poly.dir[j]);
         turn[j] = a.angle_to(b);
@@ -737,16 +763,29 @@ fn smooth_lines(
             let t = a * (h1 / (h0 + h1)) + b * (h0 / (h0 + h1));
             match t.normalized() {
                 Some(t) => Kind::Smooth(t),
-                None => corner_kind(turn[j]),
+                None => corner_kind(turn[j], opts),
             }
         } else {
-            corner_kind(turn[j])
+            corner_kind(turn[j], opts)
         };
     }
+    (kind, turn)
+}
 
-    // Plan, measure, split until every smooth segment holds tol.
-    let (d, segs, devs) = loop {
-        let d = transition_lengths(&poly, &kind, tol);
+/// Transition lengths, and the trigonometric segment (with its measured deviation) of
+/// every leg next to a smooth vertex: planned, measured, and the smooth vertices of a leg
+/// whose segment misses the tolerance turned into corners, until every one holds it.
+#[allow(clippy::type_complexity)]
+fn fit_smooth_legs(
+    poly: &Poly,
+    kind: &mut [Kind],
+    turn: &[f64],
+    opts: &SmoothOptions,
+) -> (Vec<f64>, Vec<Option<TrigSpline>>, Vec<f64>) {
+    let tol = opts.tol_mm;
+    let legs = poly.mv.len();
+    loop {
+        let d = transition_lengths(poly, kind, tol);
         let mut segs: Vec<Option<TrigSpline>> = vec![None; legs];
         let mut devs = vec![0.0; legs];
         let mut failed = Vec::new();
@@ -755,32 +794,7 @@ fn smooth_lines(
             if !matches!(ks, Kind::Smooth(_)) && !matches!(ke, Kind::Smooth(_)) {
                 continue;
             }
-            let s = poly.v[j] + poly.dir[j] * d[j];
-            let e = poly.v[j + 1] - poly.dir[j] * d[j + 1];
-            let h = s.dist(e);
-            // One derivative per smooth vertex, shared by the two segments meeting there
-            // (C1); the leg direction and the segment's own chord at the other ends.
-            let t0 = match ks {
-                Kind::Smooth(t) => t * smooth_speed(&poly, j),
-                _ => poly.dir[j] * h,
-            };
-            let t1 = match ke {
-                Kind::Smooth(t) => t * smooth_speed(&poly, j + 1),
-                _ => poly.dir[j] * h,
-            };
-            let chord = Segment::Line(Line::new(s, e));
-            let acc = tol * RUN_MEASURE_SHARE;
-            let mut ok = None;
-            for &lambda in &RUN_LAMBDAS {
-                let c = TrigSpline::hermite(s, e, t0, t1, lambda);
-                let seg = Segment::Trig(c);
-                let dev = deviation_segments(&[(&seg, 0)], &[(&chord, 0)], acc).max_mm();
-                if dev + acc <= tol {
-                    ok = Some((c, dev));
-                    break;
-                }
-            }
-            match ok {
+            match smooth_leg(poly, j, ks, ke, &d, tol) {
                 Some((c, dev)) => {
                     segs[j] = Some(c);
                     devs[j] = dev;
@@ -789,18 +803,54 @@ fn smooth_lines(
             }
         }
         if failed.is_empty() {
-            break (d, segs, devs);
+            return (d, segs, devs);
         }
         for j in failed {
             for v in [j, j + 1] {
                 if matches!(kind[v], Kind::Smooth(_)) {
-                    kind[v] = corner_kind(turn[v]);
+                    kind[v] = corner_kind(turn[v], opts);
                 }
             }
         }
-    };
+    }
+}
 
-    // Report: runs are maximal sequences of smooth vertices.
+/// The segment of leg `j` between its transitions (`d`), with vertex kinds `ks`, `ke` at
+/// its ends, and its measured deviation from the leg; `None` when no shape holds `tol`.
+fn smooth_leg(
+    poly: &Poly,
+    j: usize,
+    ks: Kind,
+    ke: Kind,
+    d: &[f64],
+    tol: f64,
+) -> Option<(TrigSpline, f64)> {
+    let s = poly.v[j] + poly.dir[j] * d[j];
+    let e = poly.v[j + 1] - poly.dir[j] * d[j + 1];
+    let h = s.dist(e);
+    // One derivative per smooth vertex, shared by the two segments meeting there (C1);
+    // the leg direction and the segment's own chord at the other ends.
+    let t0 = match ks {
+        Kind::Smooth(t) => t * smooth_speed(poly, j),
+        _ => poly.dir[j] * h,
+    };
+    let t1 = match ke {
+        Kind::Smooth(t) => t * smooth_speed(poly, j + 1),
+        _ => poly.dir[j] * h,
+    };
+    let chord = Segment::Line(Line::new(s, e));
+    let acc = tol * RUN_MEASURE_SHARE;
+    RUN_LAMBDAS.iter().find_map(|&lambda| {
+        let c = TrigSpline::hermite(s, e, t0, t1, lambda);
+        let seg = Segment::Trig(c);
+        let dev = deviation_segments(&[(&seg, 0)], &[(&chord, 0)], acc).max_mm();
+        (dev + acc <= tol).then_some((c, dev))
+    })
+}
+
+/// Reports the runs: maximal sequences of smooth vertices.
+fn report_runs(kind: &[Kind], devs: &[f64], report: &mut SmoothReport) {
+    let legs = kind.len() - 1;
     let mut j = 1;
     while j < legs {
         if matches!(kind[j], Kind::Smooth(_)) {
@@ -816,7 +866,11 @@ fn smooth_lines(
             j += 1;
         }
     }
-    for j in 1..legs {
+}
+
+/// Counts the interior vertices: smoothed corners, straight joints and stops.
+fn count_vertices(kind: &[Kind], turn: &[f64], opts: &SmoothOptions, counts: &mut Counts) {
+    for j in 1..kind.len() - 1 {
         match kind[j] {
             Kind::Round(_) | Kind::Loop => counts.smoothed += 1,
             Kind::Fixed => {
@@ -829,40 +883,32 @@ fn smooth_lines(
             Kind::Smooth(_) => {}
         }
     }
+}
 
-    // Emit.
+/// Emits, leg by leg, the corner transition at its start vertex and then the leg's
+/// smooth segment or its remaining line.
+fn emit_legs(
+    poly: &Poly,
+    kind: &[Kind],
+    d: &[f64],
+    segs: &[Option<TrigSpline>],
+    opts: &SmoothOptions,
+    pieces: &mut Vec<OutPiece>,
+) {
     let pos = |j: usize, along: f64| ChainPos {
         index: poly.mv[j],
         frac: (along / poly.len[j]).clamp(0.0, 1.0),
     };
-    for j in 0..legs {
+    for j in 0..poly.mv.len() {
         if j > 0 {
-            let vj = poly.v[j];
-            let (a, b) = (poly.dir[j - 1], poly.dir[j]);
             let from = pos(j - 1, poly.len[j - 1] - d[j]);
             let to = pos(j, d[j]);
-            match kind[j] {
-                Kind::Round(sh) => {
-                    if let Some((c, _)) = inside_transition_with(vj, a, b, &sh, tol, d[j]) {
-                        pieces.push(OutPiece {
-                            segment: Segment::Trig(c),
-                            from,
-                            to,
-                        });
-                    }
-                }
-                Kind::Loop => {
-                    if let CornerStyle::Loop { loop_size_mm } = trig.corner {
-                        if let Some(c) = loop_corner(vj, a, b, loop_size_mm) {
-                            pieces.push(OutPiece {
-                                segment: Segment::Trig(c),
-                                from,
-                                to,
-                            });
-                        }
-                    }
-                }
-                Kind::Fixed | Kind::Smooth(_) => {}
+            if let Some(c) = corner_transition(poly, j, kind[j], d[j], opts) {
+                pieces.push(OutPiece {
+                    segment: Segment::Trig(c),
+                    from,
+                    to,
+                });
             }
         }
         let from = pos(j, d[j]);
@@ -888,17 +934,25 @@ fn smooth_lines(
             }
         }
     }
-    // Zero-length moves after the last leg (skipped above) keep the chain's end exact.
-    let last_leg_move = *poly.mv.last().unwrap();
-    let end = *poly.v.last().unwrap();
-    for i in last_leg_move + 1..=last {
-        if moves[i].segment.end().dist(end) > 0.0 {
-            pieces.push(OutPiece {
-                segment: Segment::Line(Line::new(end, moves[i].segment.end())),
-                from: ChainPos::start_of(i),
-                to: ChainPos::end_of(i),
-            });
-        }
+}
+
+/// The transition at corner vertex `j` of kind `k` with length `dj`, if it has one.
+fn corner_transition(
+    poly: &Poly,
+    j: usize,
+    k: Kind,
+    dj: f64,
+    opts: &SmoothOptions,
+) -> Option<TrigSpline> {
+    let vj = poly.v[j];
+    let (a, b) = (poly.dir[j - 1], poly.dir[j]);
+    match k {
+        Kind::Round(sh) => inside_transition_with(vj, a, b, &sh, opts.tol_mm, dj).map(|(c, _)| c),
+        Kind::Loop => match opts.trig.corner {
+            CornerStyle::Loop { loop_size_mm } => loop_corner(vj, a, b, loop_size_mm),
+            _ => None,
+        },
+        Kind::Fixed | Kind::Smooth(_) => None,
     }
 }
 
