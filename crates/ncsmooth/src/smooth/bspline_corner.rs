@@ -538,15 +538,83 @@ pub fn smooth_chain(
     report: &mut SmoothReport,
 ) -> Vec<Move> {
     let moves = chain.moves;
-    if moves.is_empty() {
-        return Vec::new();
+    let Some(elems) = elements(moves) else {
+        return moves.to_vec();
+    };
+    let n = elems.len();
+    let junc = junctions(&elems, moves, opts.straight_angle_deg, report);
+    let is_corner = |j: usize| matches!(junc.get(j), Some(Junction::Corner { .. }));
+    let lambda = bopts.lambda;
+    let mut em = Emitter {
+        chain,
+        out: Vec::with_capacity(3 * n + 2),
+        cur: elems[0].a,
+        cur_pos: ChainPos::start_of(elems[0].idx),
+    };
+    let closing = closing_corner(&mut em, &elems, &junc, opts, bopts, report);
+    let mut from_transition = closing.is_some();
+    for j in 0..n {
+        let e = elems[j];
+        if !e.line {
+            em.cur_pos = ChainPos::start_of(e.idx);
+            em.push(moves[e.idx].segment.clone(), ChainPos::end_of(e.idx));
+            em.cur = e.b;
+            from_transition = false;
+            continue;
+        }
+        if let (true, Some(pl)) = (j == n - 1, &closing) {
+            close_chain(&mut em, pl, &e, elems[0].a);
+            break;
+        }
+        let placed = match junc.get(j) {
+            Some(&Junction::Corner { cos_half, sin_half }) => {
+                let next = &elems[j + 1];
+                let s = if from_transition {
+                    em.cur.lerp(e.b, lambda)
+                } else {
+                    em.cur
+                };
+                let (avail_out, out_full) = if j + 1 == n - 1 && closing.is_some() {
+                    let p0c = closing.as_ref().map_or(next.b, |c| c.p0);
+                    ((1.0 - lambda) * next.a.dist(p0c), false)
+                } else if is_corner(j + 1) {
+                    (0.5 * next.len, false)
+                } else {
+                    (next.len, true)
+                };
+                let (tol, sem) = (opts.tol_mm, bopts.band_semantics);
+                let p = place(
+                    &e, next, s, avail_out, out_full, cos_half, sin_half, tol, sem,
+                );
+                count_corner(p.is_some(), report);
+                p
+            }
+            _ => None,
+        };
+        match placed {
+            Some(pl) => {
+                em.line_to(pl.p0, pl.pos0);
+                em.curve(pl.bez[0], ChainPos::end_of(e.idx));
+                em.curve(pl.bez[1], pl.pos4);
+                from_transition = true;
+            }
+            None => {
+                em.line_to(e.b, ChainPos::end_of(e.idx));
+                from_transition = false;
+            }
+        }
     }
-    // Non-degenerate elements.
+    em.out
+}
+
+/// The chain's non-degenerate elements; `None` when a move has a non-finite end or none
+/// is left (the chain is then kept as it is).
+fn elements(moves: &[Move]) -> Option<Vec<Elem>> {
     let mut elems: Vec<Elem> = Vec::with_capacity(moves.len());
     for (idx, m) in moves.iter().enumerate() {
         let (a, b) = (m.segment.start(), m.segment.end());
         if !(a.is_finite() && b.is_finite()) {
-            return moves.to_vec();
+            return None;
         }
         match &m.segment {
             Segment::Line(_) => {
@@ -573,15 +641,26 @@ pub fn smooth_chain(
             }),
         }
     }
-    let n = elems.len();
-    if n == 0 {
-        return moves.to_vec();
-    }
-    let straight = opts.straight_angle_deg;
-    let junc: Vec<Junction> = (0..n.saturating_sub(1))
-        .map(|j| {
-            let (e0, e1) = (&elems[j], &elems[j + 1]);
-            classify(e0, e1, &moves[e0.idx], &moves[e1.idx], straight)
+    (!elems.is_empty()).then_some(elems)
+}
+
+/// The junction after each element but the last; counts the straight ones and the stops.
+fn junctions(
+    elems: &[Elem],
+    moves: &[Move],
+    straight_deg: f64,
+    report: &mut SmoothReport,
+) -> Vec<Junction> {
+    let junc: Vec<Junction> = elems
+        .windows(2)
+        .map(|w| {
+            classify(
+                &w[0],
+                &w[1],
+                &moves[w[0].idx],
+                &moves[w[1].idx],
+                straight_deg,
+            )
         })
         .collect();
     for j in &junc {
@@ -594,124 +673,88 @@ pub fn smooth_chain(
             Junction::Corner { .. } => {}
         }
     }
-    let is_corner = |j: usize| matches!(junc.get(j), Some(Junction::Corner { .. }));
-    let (tol, sem, lambda) = (opts.tol_mm, bopts.band_semantics, bopts.lambda);
+    junc
+}
 
-    let mut em = Emitter {
-        chain,
-        out: Vec::with_capacity(3 * n + 2),
-        cur: elems[0].a,
-        cur_pos: ChainPos::start_of(elems[0].idx),
+fn count_corner(smoothed: bool, report: &mut SmoothReport) {
+    if smoothed {
+        report.corners_smoothed += 1;
+    } else {
+        report.corners_stopped += 1;
+    }
+}
+
+/// The closing corner of a closed chain, placed first and entered through its shoulder
+/// (its second half is emitted here, from the chain's start); `None` when the chain is
+/// open, the option is off or the corner cannot be placed.
+fn closing_corner(
+    em: &mut Emitter<'_, '_>,
+    elems: &[Elem],
+    junc: &[Junction],
+    opts: &SmoothOptions,
+    bopts: &BsplineOptions,
+    report: &mut SmoothReport,
+) -> Option<Placed> {
+    let n = elems.len();
+    let moves = em.chain.moves;
+    if !(bopts.smooth_closing_corner && n >= 2 && em.chain.is_closed(GAP_TOL_MM)) {
+        return None;
+    }
+    let (last, first) = (&elems[n - 1], &elems[0]);
+    if !(last.line && first.line) {
+        return None;
+    }
+    let straight = opts.straight_angle_deg;
+    let Junction::Corner { cos_half, sin_half } =
+        classify(last, first, &moves[last.idx], &moves[first.idx], straight)
+    else {
+        return None;
     };
-
-    // Closing corner of a closed chain: placed first, entered and left through its shoulder.
-    let mut closing: Option<Placed> = None;
-    if bopts.smooth_closing_corner && n >= 2 && chain.is_closed(GAP_TOL_MM) {
-        let (last, first) = (&elems[n - 1], &elems[0]);
-        if last.line && first.line {
-            let j = classify(last, first, &moves[last.idx], &moves[first.idx], straight);
-            if let Junction::Corner { cos_half, sin_half } = j {
-                let avail_in = if is_corner(n - 2) {
-                    0.5 * last.len
-                } else {
-                    last.len
-                };
-                let s = last.b + (last.a - last.b) * (avail_in / last.len);
-                let out_full = !is_corner(0);
-                let avail_out = if out_full { first.len } else { 0.5 * first.len };
-                // The closing corner's vertex is the chain's start.
-                let last_v = Elem {
-                    b: first.a,
-                    ..*last
-                };
-                closing = place(
-                    &last_v, first, s, avail_out, out_full, cos_half, sin_half, tol, sem,
-                );
-                if let Some(pl) = &closing {
-                    report.corners_smoothed += 1;
-                    let m = pl.bez[1].p0;
-                    match hook(first.a, m, pl.bez[1].deriv(0.0), true) {
-                        Some([h0, h1]) => {
-                            em.curve(h0, ChainPos::start_of(first.idx));
-                            em.curve(h1, ChainPos::start_of(first.idx));
-                        }
-                        None => em.line_to(m, ChainPos::start_of(first.idx)),
-                    }
-                    em.curve(pl.bez[1], pl.pos4);
-                } else {
-                    report.corners_stopped += 1;
-                }
-            }
+    let is_corner = |j: usize| matches!(junc.get(j), Some(Junction::Corner { .. }));
+    let avail_in = if is_corner(n - 2) {
+        0.5 * last.len
+    } else {
+        last.len
+    };
+    let s = last.b + (last.a - last.b) * (avail_in / last.len);
+    let out_full = !is_corner(0);
+    let avail_out = if out_full { first.len } else { 0.5 * first.len };
+    // The closing corner's vertex is the chain's start.
+    let last_v = Elem {
+        b: first.a,
+        ..*last
+    };
+    let (tol, sem) = (opts.tol_mm, bopts.band_semantics);
+    let closing = place(
+        &last_v, first, s, avail_out, out_full, cos_half, sin_half, tol, sem,
+    );
+    count_corner(closing.is_some(), report);
+    let pl = closing.as_ref()?;
+    let m = pl.bez[1].p0;
+    match hook(first.a, m, pl.bez[1].deriv(0.0), true) {
+        Some([h0, h1]) => {
+            em.curve(h0, ChainPos::start_of(first.idx));
+            em.curve(h1, ChainPos::start_of(first.idx));
         }
+        None => em.line_to(m, ChainPos::start_of(first.idx)),
     }
-    let mut from_transition = closing.is_some();
+    em.curve(pl.bez[1], pl.pos4);
+    closing
+}
 
-    for j in 0..n {
-        let e = elems[j];
-        if !e.line {
-            em.cur_pos = ChainPos::start_of(e.idx);
-            em.push(moves[e.idx].segment.clone(), ChainPos::end_of(e.idx));
-            em.cur = e.b;
-            from_transition = false;
-            continue;
+/// The last element `e` of a closed chain: up to the closing corner, its first half, and
+/// the hook back to the chain's start `start`.
+fn close_chain(em: &mut Emitter<'_, '_>, pl: &Placed, e: &Elem, start: Vec3) {
+    em.line_to(pl.p0, pl.pos0);
+    em.curve(pl.bez[0], ChainPos::end_of(e.idx));
+    let m = pl.bez[0].p3;
+    match hook(start, m, pl.bez[0].deriv(1.0), false) {
+        Some([h0, h1]) => {
+            em.curve(h0, ChainPos::end_of(e.idx));
+            em.curve(h1, ChainPos::end_of(e.idx));
         }
-        if j == n - 1 {
-            if let Some(pl) = &closing {
-                em.line_to(pl.p0, pl.pos0);
-                em.curve(pl.bez[0], ChainPos::end_of(e.idx));
-                let m = pl.bez[0].p3;
-                match hook(elems[0].a, m, pl.bez[0].deriv(1.0), false) {
-                    Some([h0, h1]) => {
-                        em.curve(h0, ChainPos::end_of(e.idx));
-                        em.curve(h1, ChainPos::end_of(e.idx));
-                    }
-                    None => em.line_to(elems[0].a, ChainPos::end_of(e.idx)),
-                }
-                break;
-            }
-        }
-        let placed = match junc.get(j) {
-            Some(&Junction::Corner { cos_half, sin_half }) => {
-                let next = &elems[j + 1];
-                let s = if from_transition {
-                    em.cur.lerp(e.b, lambda)
-                } else {
-                    em.cur
-                };
-                let (avail_out, out_full) = if j + 1 == n - 1 && closing.is_some() {
-                    let p0c = closing.as_ref().map_or(next.b, |c| c.p0);
-                    ((1.0 - lambda) * next.a.dist(p0c), false)
-                } else if is_corner(j + 1) {
-                    (0.5 * next.len, false)
-                } else {
-                    (next.len, true)
-                };
-                let p = place(
-                    &e, next, s, avail_out, out_full, cos_half, sin_half, tol, sem,
-                );
-                if p.is_some() {
-                    report.corners_smoothed += 1;
-                } else {
-                    report.corners_stopped += 1;
-                }
-                p
-            }
-            _ => None,
-        };
-        match placed {
-            Some(pl) => {
-                em.line_to(pl.p0, pl.pos0);
-                em.curve(pl.bez[0], ChainPos::end_of(e.idx));
-                em.curve(pl.bez[1], pl.pos4);
-                from_transition = true;
-            }
-            None => {
-                em.line_to(e.b, ChainPos::end_of(e.idx));
-                from_transition = false;
-            }
-        }
+        None => em.line_to(start, ChainPos::end_of(e.idx)),
     }
-    em.out
 }
 
 /// Curvature along arc length of the feed moves of `tp`, as `(s_mm, kappa_per_mm)` pairs:
