@@ -467,26 +467,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             Some((j, u, ders)) if j == self.cur && u == u0 => ders,
             _ => seg.ders(u0),
         };
-        // Point (and, when they are cheap, derivatives) at a parameter the step tries.
-        let try_at = |xi: f64| -> (Vec3, Option<[Vec3; 3]>) {
-            if C::DERS_ARE_CHEAP {
-                let d = seg.ders(xi);
-                (d[0], Some(d))
-            } else {
-                (seg.eval(xi), None)
-            }
-        };
-        // Chord of the planned arc length on the osculating circle (eq. 15's V T = chord,
-        // made exact for circles).
-        let kappa = curvature_vec_from(d1, d2).norm();
-        let half = 0.5 * arc * kappa;
-        let len = if half > MAX_HALF_ANGLE {
-            f64::INFINITY
-        } else if half > 1e-6 {
-            2.0 * half.sin() / kappa
-        } else {
-            arc
-        };
+        let len = chord_of_arc(arc, d1, d2);
         if seg.end().dist(p0) < len {
             // The chord cannot reach L on this move: solve on arc length.
             self.stats.fallback_steps += 1;
@@ -498,24 +479,42 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             self.p = p;
             return;
         }
-        let sp = d1.norm();
-        let acc = d2.norm();
-        let (mut lo, mut hi) = (u0, 1.0);
-        let mut xi = match self.opts.method {
-            InterpMethod::Taylor2 if sp > 0.0 && sp * sp >= acc * len => {
-                u0 + len / sp - len * len * d1.dot(d2) / (2.0 * sp.powi(4))
-            }
-            _ if sp > 0.0 && sp * sp >= acc * len => u0 + len / sp, // eq. 19
-            _ if acc > 0.0 => u0 + (-sp + (sp * sp + 2.0 * acc * len).sqrt()) / acc,
-            _ => f64::NAN,
-        };
-        if !(xi > lo && xi <= hi) {
-            xi = (u0 + 2.0 * len / sp.max(f64::MIN_POSITIVE)).min(hi);
-            if xi.is_nan() || xi <= lo {
-                xi = 0.5 * (lo + hi);
-            }
+        let xi0 = first_guess(self.opts.method, u0, len, d1, d2);
+        let it = self.chord_iteration(seg, u0, p0, len, xi0);
+        self.stats.record(it.eta, len, it.k);
+        let (mut xi, mut p, mut at) = (it.xi, it.p, it.at);
+        let mut done = seg.step_arclen(u0, xi);
+        let miss = (done - arc).abs();
+        self.stats.arc_miss_max_mm = self.stats.arc_miss_max_mm.max(miss);
+        if arc > ETA_MIN_STEP_MM {
+            self.stats.feed_fluctuation_max = self.stats.feed_fluctuation_max.max(miss / arc);
         }
-        let (mut p, mut at) = try_at(xi);
+        if self.opts.arc_correction && miss > ARC_CORRECTION_TOL_MM {
+            self.stats.arc_corrections += 1;
+            (xi, done) = correct_arclen(seg, u0, xi, done, arc, at.take());
+            (p, at) = try_at(seg, xi);
+        }
+        if let Some(ders) = at {
+            self.here = Some((self.cur, xi, ders));
+        }
+        self.s += done;
+        self.u = xi;
+        self.p = p;
+    }
+
+    /// Solves `|P(xi) - p0| = len` from `xi` by the configured method (Newton on the chord,
+    /// eqs. 17-18, safeguarded by a bracket; or the first guess alone).
+    #[inline]
+    fn chord_iteration<C: StepCurve>(
+        &self,
+        seg: &C,
+        u0: f64,
+        p0: Vec3,
+        len: f64,
+        mut xi: f64,
+    ) -> ChordIter {
+        let (mut lo, mut hi) = (u0, 1.0);
+        let (mut p, mut at) = try_at(seg, xi);
         let mut chord = p.dist(p0);
         let mut eta = 1.0 - chord / len;
         // Chord differences below this are rounding of the coordinates.
@@ -557,60 +556,13 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 } else {
                     (lo + (lo - u0)).min(hi)
                 };
-                (p, at) = try_at(xi);
+                (p, at) = try_at(seg, xi);
                 chord = p.dist(p0);
                 eta = 1.0 - chord / len;
                 k += 1;
             }
         }
-        self.stats.record(eta, len, k);
-        let mut done = seg.step_arclen(u0, xi);
-        let miss = (done - arc).abs();
-        self.stats.arc_miss_max_mm = self.stats.arc_miss_max_mm.max(miss);
-        if arc > ETA_MIN_STEP_MM {
-            self.stats.feed_fluctuation_max = self.stats.feed_fluctuation_max.max(miss / arc);
-        }
-        if self.opts.arc_correction && miss > ARC_CORRECTION_TOL_MM {
-            // Keep the setpoint on the planned arc length: safeguarded Newton on
-            // int |P'| = arc from the chord solution.
-            self.stats.arc_corrections += 1;
-            let (mut lo, mut hi) = if done > arc { (u0, xi) } else { (xi, 1.0) };
-            for _ in 0..FALLBACK_ITERS {
-                let sp = at.take().map_or_else(|| seg.deriv(xi), |d| d[1]).norm();
-                let next = xi - (done - arc) / sp;
-                let prev = xi;
-                xi = if sp > 0.0 && next > lo && next < hi {
-                    next
-                } else {
-                    0.5 * (lo + hi)
-                };
-                // The arc length moves by the piece between the two parameters: a short
-                // piece (the Newton correction of a miss of at most a few micrometres)
-                // is integrated to rounding by 3-point Gauss-Legendre; a long one (a
-                // bisection) is measured again from the step's start.
-                done = if (xi - prev).abs() <= CORRECTION_PIECE_SHARE * (xi - u0).abs() {
-                    done + seg.gl3_signed_arclen(prev, xi)
-                } else {
-                    seg.step_arclen(u0, xi)
-                };
-                let err = done - arc;
-                if err.abs() <= ARC_CORRECTION_TOL_MM * 0.5 || hi - lo < 1e-16 {
-                    break;
-                }
-                if err > 0.0 {
-                    hi = xi;
-                } else {
-                    lo = xi;
-                }
-            }
-            (p, at) = try_at(xi);
-        }
-        if let Some(ders) = at {
-            self.here = Some((self.cur, xi, ders));
-        }
-        self.s += done;
-        self.u = xi;
-        self.p = p;
+        ChordIter { xi, p, at, eta, k }
     }
 
     /// Arc-length position reached (mm).
@@ -621,6 +573,110 @@ impl<'p, 'a> Interpolator<'p, 'a> {
 
 /// The parameter at which the arc length from `u0` equals `len` (Newton-bisection on
 /// `int |P'| - len`; never divides by a zero speed).
+/// Where one chord iteration ended: the parameter, the point (and its derivatives when
+/// they are cheap), the chord error `eta` and the iterations taken.
+struct ChordIter {
+    xi: f64,
+    p: Vec3,
+    at: Option<[Vec3; 3]>,
+    eta: f64,
+    k: usize,
+}
+
+/// Point (and, when they are cheap, derivatives) at a parameter a step tries.
+#[inline]
+fn try_at<C: StepCurve>(seg: &C, xi: f64) -> (Vec3, Option<[Vec3; 3]>) {
+    if C::DERS_ARE_CHEAP {
+        let d = seg.ders(xi);
+        (d[0], Some(d))
+    } else {
+        (seg.eval(xi), None)
+    }
+}
+
+/// Chord of the planned arc length `arc` on the osculating circle at a point with
+/// derivatives `d1`, `d2` (eq. 15's `V T` = chord, made exact for circles); infinite for
+/// a step around more than [`MAX_HALF_ANGLE`] of it.
+#[inline]
+fn chord_of_arc(arc: f64, d1: Vec3, d2: Vec3) -> f64 {
+    let kappa = curvature_vec_from(d1, d2).norm();
+    let half = 0.5 * arc * kappa;
+    if half > MAX_HALF_ANGLE {
+        f64::INFINITY
+    } else if half > 1e-6 {
+        2.0 * half.sin() / kappa
+    } else {
+        arc
+    }
+}
+
+/// The first parameter tried for a chord `len` from `u0` (eq. 19, or its second-order
+/// form), kept inside `(u0, 1]`.
+#[inline]
+fn first_guess(method: InterpMethod, u0: f64, len: f64, d1: Vec3, d2: Vec3) -> f64 {
+    let (sp, acc) = (d1.norm(), d2.norm());
+    let xi = match method {
+        InterpMethod::Taylor2 if sp > 0.0 && sp * sp >= acc * len => {
+            u0 + len / sp - len * len * d1.dot(d2) / (2.0 * sp.powi(4))
+        }
+        _ if sp > 0.0 && sp * sp >= acc * len => u0 + len / sp, // eq. 19
+        _ if acc > 0.0 => u0 + (-sp + (sp * sp + 2.0 * acc * len).sqrt()) / acc,
+        _ => f64::NAN,
+    };
+    if xi > u0 && xi <= 1.0 {
+        return xi;
+    }
+    let xi = (u0 + 2.0 * len / sp.max(f64::MIN_POSITIVE)).min(1.0);
+    if xi.is_nan() || xi <= u0 {
+        0.5 * (u0 + 1.0)
+    } else {
+        xi
+    }
+}
+
+/// Keeps the setpoint on the planned arc length: safeguarded Newton on `int |P'| = arc`
+/// from the chord solution `xi` (whose arc length is `done`; `at` its derivatives if
+/// known). Returns the parameter and its arc length.
+fn correct_arclen<C: StepCurve>(
+    seg: &C,
+    u0: f64,
+    mut xi: f64,
+    mut done: f64,
+    arc: f64,
+    mut at: Option<[Vec3; 3]>,
+) -> (f64, f64) {
+    let (mut lo, mut hi) = if done > arc { (u0, xi) } else { (xi, 1.0) };
+    for _ in 0..FALLBACK_ITERS {
+        let sp = at.take().map_or_else(|| seg.deriv(xi), |d| d[1]).norm();
+        let next = xi - (done - arc) / sp;
+        let prev = xi;
+        xi = if sp > 0.0 && next > lo && next < hi {
+            next
+        } else {
+            0.5 * (lo + hi)
+        };
+        // The arc length moves by the piece between the two parameters: a short piece
+        // (the Newton correction of a miss of at most a few micrometres) is integrated to
+        // rounding by 3-point Gauss-Legendre; a long one (a bisection) is measured again
+        // from the step's start.
+        done = if (xi - prev).abs() <= CORRECTION_PIECE_SHARE * (xi - u0).abs() {
+            done + seg.gl3_signed_arclen(prev, xi)
+        } else {
+            seg.step_arclen(u0, xi)
+        };
+        let err = done - arc;
+        if err.abs() <= ARC_CORRECTION_TOL_MM * 0.5 || hi - lo < 1e-16 {
+            break;
+        }
+        if err > 0.0 {
+            hi = xi;
+        } else {
+            lo = xi;
+        }
+    }
+    (xi, done)
+}
+
 fn solve_arclen<C: ParamCurveDeriv>(seg: &C, u0: f64, len: f64) -> f64 {
     let (mut lo, mut hi) = (u0, 1.0);
     let mut xi = 0.5 * (lo + hi);
