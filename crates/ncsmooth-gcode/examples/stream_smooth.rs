@@ -53,9 +53,11 @@ fn main() {
     stream.verify_accuracy_mm = std::env::var_os("NOVERIFY")
         .is_none()
         .then_some(MEASURE_ACCURACY_MM);
-    let mut opts = SmoothOptions::default();
-    opts.method = method;
-    opts.tol_mm = tol_mm;
+    let opts = SmoothOptions {
+        method,
+        tol_mm,
+        ..Default::default()
+    };
 
     let clock = Instant::now();
     let popts = ParseOptions::default();
