@@ -82,6 +82,22 @@
 //!    filter window never straddles a corner (the filtered motion comes to rest exactly
 //!    at the stop point and leaves from it). The end of motion is therefore `W` later.
 //!
+//! ## Choosing the split per path
+//! Points 1 to 5 hold for any `U` and `J_t` in `(0, 1)` of the limits ([`JerkSplit`]);
+//! which is fastest depends on the path and the limits. A small `U` shortens the window
+//! (less dilation, shorter holds) and leaves the curvature more room, but every speed
+//! change takes longer; a small `J_t` leaves the geometric jerk terms more room but
+//! lengthens the window. Measured (cycle s, nurbs): butterfly_1000 at 200 mm/s,
+//! 3000 mm/s^2, 60000 mm/s^3 is fastest near `U` = 0.12 A, `J_t` = 0.55 J (7.24 s,
+//! against 8.42 s at the default 0.3/0.5 and 10.1 s at 0.7/0.5), but at 50 mm/s,
+//! 500 mm/s^2, 50000 mm/s^3 near 0.5/0.5 (10.48 s, against 13.72 s at 0.12/0.55).
+//! So unless [`super::PlanOptions::jerk_split`] gives one, the planning run
+//! ([`crate::interp::execute`]) plans the path with each of [`SPLIT_CANDIDATES`] and
+//! a short local search around the best ([`fastest_split`]: planning passes only, no
+//! setpoints; a program longer than [`SPLIT_SEARCH_MAX_BLOCKS`] is judged by its first
+//! blocks) and keeps the shortest plan. Choosing among plans that each hold every limit
+//! keeps the proof; the report's options give the split used.
+//!
 //! ## Finite-difference noise
 //! Positions are printed to 1e-9 mm and the interpolator lands on the planned arc length
 //! to [`crate::interp::ARC_CORRECTION_TOL_MM`]: a third difference of such errors is up to
@@ -106,8 +122,10 @@
 //! corners (`--junction-dev`) remain velocity jumps and are reported, not limited.
 
 use crate::geom::Vec3;
+use crate::path::Toolpath;
 
 use super::limits::NEGLIGIBLE;
+use super::{plan_stream, PathIndex, PlanEvent, PlanOptions};
 
 /// Share of each axis's acceleration limit given to the curvature term `v^2 K_i` by the
 /// default split ([`JerkSplit::DEFAULT`]); the rest, `1 - share`, is the tangential
@@ -285,6 +303,135 @@ impl JerkCaps {
     }
 }
 
+/// Splits [`fastest_split`] tries, the default first (it wins ties). The tangential share
+/// `U` trades the plan's tangential acceleration against the window `W = 2 U / J_t`
+/// (the stops' hold and the reach of the dilation) and the room `A_i - U |T_i|` left to
+/// the curvature; `J_t` trades the window against the room `J_i - J_t |T_i|` left to
+/// the speed-dependent jerk terms. Measured on butterfly_1000 (nurbs, tol 0.1 mm,
+/// 200 mm/s, 3000 mm/s^2, 60000 mm/s^3) the cycle time is least near `U` = 0.12 and
+/// `J_t` = 0.55 of the limits (7.24 s, against 8.42 s with the default).
+pub const SPLIT_CANDIDATES: [JerkSplit; 6] = [
+    JerkSplit::DEFAULT,
+    JerkSplit {
+        u_share: 0.07,
+        jt_share: 0.6,
+    },
+    JerkSplit {
+        u_share: 0.12,
+        jt_share: 0.55,
+    },
+    JerkSplit {
+        u_share: 0.2,
+        jt_share: 0.5,
+    },
+    JerkSplit {
+        u_share: 0.5,
+        jt_share: 0.5,
+    },
+    JerkSplit {
+        u_share: 0.7,
+        jt_share: 0.4,
+    },
+];
+
+/// Slack (in periods) when rounding a stop time up to the period grid (as the
+/// interpolation run does).
+const PERIOD_ROUND_SLACK: f64 = 1e-9;
+
+/// Duration (s) of the jerk-mode plan of `path` under `opts` (valid, with a jerk limit):
+/// the planned pieces and every stop's dwell and hold, each stop rounded up to the period
+/// grid as the interpolation run does; no setpoints are made.
+pub fn planned_duration(path: &Toolpath, opts: &PlanOptions) -> f64 {
+    let index = PathIndex::new(path, opts);
+    let (hold, period) = (opts.stop_hold_s(), opts.period_s);
+    let mut t = 0.0f64;
+    plan_stream(&index, opts, |ev| match ev {
+        PlanEvent::Piece(p) => t += p.dt,
+        PlanEvent::Stop { dwell_s, .. } => {
+            t = ((t + dwell_s + hold) / period - PERIOD_ROUND_SLACK)
+                .ceil()
+                .max(0.0)
+                * period;
+        }
+    });
+    t
+}
+
+/// Steps of the local search of [`fastest_split`] around the best candidate: the factor
+/// on `u_share` (and its inverse) and the change of `jt_share`, one round each.
+pub const SPLIT_REFINE_STEPS: [(f64, f64); 2] = [(0.7, 0.1), (0.85, 0.05)];
+/// Most program blocks [`fastest_split`] plans with: a longer program is judged by its
+/// first blocks, so that the search costs at most some 14 planning passes of this many
+/// blocks (on linuxcnc_stellabee1, 168 k blocks, a whole pass takes some 18 s).
+pub const SPLIT_SEARCH_MAX_BLOCKS: usize = 8192;
+/// Range of the shares the local search of [`fastest_split`] keeps to.
+pub const SPLIT_SHARE_RANGE: (f64, f64) = (0.02, 0.9);
+
+/// The split whose plan of `path` under `opts` (valid, with a jerk limit) is the shortest
+/// ([`planned_duration`]): the best of [`SPLIT_CANDIDATES`], then a local search around
+/// it ([`SPLIT_REFINE_STEPS`]: each round tries `u_share` times and divided by the
+/// factor and `jt_share` plus and minus the step, and moves to the best if it is
+/// shorter). The default without a jerk limit. Every split in `(0, 1)` holds every limit
+/// (module doc), so choosing among them by the plan's duration keeps the proof; each
+/// try is one planning pass (no setpoints) of at most [`SPLIT_SEARCH_MAX_BLOCKS`]
+/// blocks.
+pub fn fastest_split(path: &Toolpath, opts: &PlanOptions) -> JerkSplit {
+    if opts.jerk_mm_s3.is_none() {
+        return JerkSplit::DEFAULT;
+    }
+    // A long program is judged by its first blocks (the choice is only a speed matter).
+    let prefix;
+    let path = if path.blocks.len() > SPLIT_SEARCH_MAX_BLOCKS {
+        prefix = Toolpath {
+            blocks: path.blocks[..SPLIT_SEARCH_MAX_BLOCKS].to_vec(),
+            start: path.start,
+            units: path.units,
+            extra_axes_mask: path.extra_axes_mask,
+        };
+        &prefix
+    } else {
+        path
+    };
+    let time = |split: JerkSplit| {
+        let o = PlanOptions {
+            jerk_split: Some(split),
+            ..opts.clone()
+        };
+        planned_duration(path, &o)
+    };
+    let mut best = (f64::INFINITY, JerkSplit::DEFAULT);
+    for split in SPLIT_CANDIDATES {
+        let t = time(split);
+        if t < best.0 {
+            best = (t, split);
+        }
+    }
+    let (lo, hi) = SPLIT_SHARE_RANGE;
+    for (f, d) in SPLIT_REFINE_STEPS {
+        let c = best.1;
+        let tries = [
+            (c.u_share * f, c.jt_share),
+            (c.u_share / f, c.jt_share),
+            (c.u_share, c.jt_share - d),
+            (c.u_share, c.jt_share + d),
+        ];
+        for (u, jt) in tries {
+            let split = JerkSplit {
+                u_share: u.clamp(lo, hi),
+                jt_share: jt.clamp(lo, hi),
+            };
+            if split == c {
+                continue;
+            }
+            let t = time(split);
+            if t < best.0 {
+                best = (t, split);
+            }
+        }
+    }
+    best.1
+}
+
 /// Bisection steps of [`JerkCaps::speed_cap_x`] (relative accuracy 2^-60, from below).
 const SPEED_CAP_BISECTIONS: usize = 60;
 
@@ -422,6 +569,51 @@ mod tests {
         // At the usual settings the acceleration share stays the limit.
         let usual = JerkCaps::new([495.0; 3], [5000.0; 3], t, v);
         assert_eq!(usual.u_max_mm_s2, (1.0 - CURVATURE_ACC_SHARE) * 495.0);
+    }
+
+    #[test]
+    fn the_fastest_split_is_a_candidate_no_slower_than_the_default() {
+        // A zigzag of lines with rounded corners (cubic Beziers): stops are few, the
+        // curves and the lines both count.
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        let mut p = Vec3::ZERO;
+        for i in 0..6 {
+            let dir = if i % 2 == 0 { Vec3::X } else { Vec3::Y };
+            let q = p + dir * 5.0;
+            tp.push_move(crate::path::Move::feed(
+                crate::geom::Line::new(p, q),
+                None,
+                1,
+            ));
+            let other = if i % 2 == 0 { Vec3::Y } else { Vec3::X };
+            let r = q + (dir + other) * 0.5;
+            let c = crate::geom::CubicBez::new(q, q + dir * 0.3, r - other * 0.3, r);
+            tp.push_move(crate::path::Move::feed(c, None, 1));
+            p = r;
+        }
+        let opts = PlanOptions {
+            jerk_mm_s3: Some([5000.0; 3]),
+            ..Default::default()
+        };
+        let best = fastest_split(&tp, &opts);
+        assert!(best.is_valid());
+        let time = |s: JerkSplit| {
+            planned_duration(
+                &tp,
+                &PlanOptions {
+                    jerk_split: Some(s),
+                    ..opts.clone()
+                },
+            )
+        };
+        let t_best = time(best);
+        assert!(t_best > 0.0);
+        for s in SPLIT_CANDIDATES {
+            assert!(t_best <= time(s), "{s:?}");
+        }
+        // Without a jerk limit there is nothing to choose.
+        let trap = PlanOptions::default();
+        assert_eq!(fastest_split(&tp, &trap), JerkSplit::DEFAULT);
     }
 
     #[test]

@@ -183,8 +183,10 @@ pub struct PlanOptions {
     /// Junction deviation (mm) of grbl's corner rule; `None` (default) makes every tangent
     /// break an exact stop.
     pub junction_dev_mm: Option<f64>,
-    /// Jerk mode: the split of the limits ([`jerk::JerkSplit`]); `None` (default):
-    /// [`jerk::JerkSplit::DEFAULT`].
+    /// Jerk mode: the split of the limits ([`jerk::JerkSplit`]); `None` (default): the
+    /// planning run ([`crate::interp::execute`]) takes the fastest of
+    /// [`jerk::SPLIT_CANDIDATES`] for the path ([`jerk::fastest_split`]); planning
+    /// functions given `None` directly use [`jerk::JerkSplit::DEFAULT`].
     pub jerk_split: Option<jerk::JerkSplit>,
 }
 

@@ -359,10 +359,18 @@ fn jerk_line_is_the_averaged_trapezoid() {
         jerk_mm_s3: Some([5000.0; 3]),
         ..Default::default()
     };
-    let jc = p.jerk_caps().unwrap();
     let (rep, r) = run(&tp, &p, &InterpOptions::default());
     check_invariants(&tp, &rep, &r);
     assert_jerk_limits(&rep);
+    // The run chose the split (the fastest candidate for the path) and reports it.
+    assert!(rep.options.jerk_split.is_some());
+    let jc = rep.options.jerk_caps().unwrap();
+    // The duration the choice was made by is the cycle time.
+    let planned = crate::feed::jerk::planned_duration(&tp, &rep.options);
+    assert!(
+        (planned - rep.cycle_time_s).abs() <= p.period_s + 1e-9,
+        "{planned}"
+    );
     let plan = 100.0 / 50.0 + 50.0 / jc.u_max_mm_s2;
     let expect = ((plan + jc.window_s) / p.period_s - 1e-9).ceil() * p.period_s;
     assert!(
