@@ -888,3 +888,40 @@ proptest! {
         prop_assert!(planned);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// Any split of the limits ([`crate::feed::jerk::JerkSplit`]) holds every per-axis
+    /// acceleration and jerk limit on blended paths (the split search only picks among
+    /// them): measured by finite differences on the printed setpoints.
+    #[test]
+    fn every_jerk_split_holds_the_limits(
+        pts in prop::collection::vec((-3.0f64..3.0, -3.0f64..3.0, -0.5f64..0.5), 2..5),
+        u_share in 0.02f64..0.95,
+        jt_share in 0.02f64..0.95,
+        acc in log_uniform(50.0, 5000.0),
+        jerk in log_uniform(500.0, 100000.0),
+        feed in log_uniform(5.0, 200.0),
+    ) {
+        let pts: Vec<Vec3> = pts.into_iter().map(|(x, y, z)| Vec3::new(x, y, z)).collect();
+        let tp = blended(&pts, 0.5);
+        let p = PlanOptions {
+            feed_mm_s: feed,
+            acc_mm_s2: [acc, acc * 0.7, acc * 1.3],
+            jerk_mm_s3: Some([jerk, jerk * 1.5, jerk * 0.8]),
+            jerk_split: Some(crate::feed::jerk::JerkSplit { u_share, jt_share }),
+            ..Default::default()
+        };
+        let (rep, out) = execute(&tp, &p, &InterpOptions::default(), Vec::new()).unwrap();
+        let r = rows(&out);
+        check_invariants(&tp, &rep, &r);
+        let m = fd_maxima(&r);
+        let j = p.jerk_mm_s3.unwrap();
+        for i in 0..3 {
+            prop_assert!(m[1][i] <= p.acc_mm_s2[i], "axis {i} acc {} > {}", m[1][i], p.acc_mm_s2[i]);
+            prop_assert!(m[2][i] <= j[i], "axis {i} jerk {} > {}", m[2][i], j[i]);
+        }
+        prop_assert!(rep.limits_held, "{:?}", rep.axes);
+    }
+}
