@@ -81,6 +81,17 @@
 //! 5. Stops: the plan rests at every stop for `W` more than the trapezoid would, so the
 //!    filter window never straddles a corner (the filtered motion comes to rest exactly
 //!    at the stop point and leaves from it). The end of motion is therefore `W` later.
+//! 6. Lines far from curves: points 2 to 4 need `|s''| <= U` only over the positions a
+//!    window can span around a filtered position `sigma` on a curve. The window's plan
+//!    span `[a, b]` holds `sigma` and is at most `W v_f <= W V` long (`V` the top speed),
+//!    so a straight interval farther than `W V` from every curved interval
+//!    ([`JerkCaps::line_u_max`], set per window by the look-ahead) may accelerate at
+//!    `U_L = min_i min(A_i, J_i W / 2)`: a filtered position on a curve never sees it,
+//!    and one on a line sees `|a_i| = |s_f''| |T_i| <= U_L <= A_i` and
+//!    `|j_i| = |s_f'''| |T_i| <= 2 U_L / W <= J_i` (no curvature terms there). Beyond
+//!    the look-ahead window, unknown positions count as curved. Measured on crown at
+//!    50 mm/s, 500 mm/s^2 (its flanks): 1 to 2 % shorter cycles (trig at 5000 mm/s^3
+//!    12.467 -> 12.338 s, arc 19.480 -> 19.015).
 //!
 //! ## Choosing the split per path
 //! Points 1 to 5 hold for any `U` and `J_t` in `(0, 1)` of the limits ([`JerkSplit`]);
@@ -251,6 +262,17 @@ impl JerkCaps {
             window_s: 2.0 * u / jt,
             period_s,
         }
+    }
+
+    /// Tangential limit (mm/s^2) of a straight interval far from any curve (point 6 of the
+    /// module doc): `min_i min(A_i, J_i W / 2)`, so that on a line `|s_f''| |T_i| <= A_i`
+    /// and `|s_f'''| |T_i| <= 2 U / W |T_i| <= J_i` whatever the direction; never below `U`.
+    pub fn line_u_max(&self, acc: &[f64; 3]) -> f64 {
+        let mut u = f64::INFINITY;
+        for i in 0..3 {
+            u = u.min(acc[i]).min(0.5 * self.jerk_mm_s3[i] * self.window_s);
+        }
+        u.max(self.u_max_mm_s2)
     }
 
     /// Cap on `x = v^2` from the curvature term of the per-axis acceleration at a point

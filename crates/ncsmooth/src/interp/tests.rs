@@ -352,8 +352,9 @@ fn assert_jerk_limits(rep: &PlanReport) {
 
 #[test]
 fn jerk_line_is_the_averaged_trapezoid() {
-    // 100 mm along X: the plan is a trapezoid at U (the tangential share of the
-    // acceleration); the setpoints follow its moving average over W, resting W at the end.
+    // 100 mm along X: no curve anywhere, so the plan is a trapezoid at the line limit
+    // (`line_u_max`, point 6 of feed::jerk); the setpoints follow its moving average over
+    // W, resting W at the end.
     let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(100.0, 0.0, 0.0)], None);
     let p = PlanOptions {
         jerk_mm_s3: Some([5000.0; 3]),
@@ -371,17 +372,21 @@ fn jerk_line_is_the_averaged_trapezoid() {
         (planned - rep.cycle_time_s).abs() <= p.period_s + 1e-9,
         "{planned}"
     );
-    let plan = 100.0 / 50.0 + 50.0 / jc.u_max_mm_s2;
+    let u = jc.line_u_max(&p.acc_mm_s2.map(|a| crate::feed::planned_acc(a, p.period_s)));
+    assert!(u > jc.u_max_mm_s2, "{u} {jc:?}");
+    let plan = 100.0 / 50.0 + 50.0 / u;
     let expect = ((plan + jc.window_s) / p.period_s - 1e-9).ceil() * p.period_s;
     assert!(
         (rep.cycle_time_s - expect).abs() <= p.period_s + 1e-9,
         "{}",
         rep.cycle_time_s
     );
-    // The S-curve: the acceleration ramps at U / W (the box filter of a step in u).
+    // The S-curve: the acceleration ramps at u / W (the box filter of a step in u) up to
+    // u, or to 50 / W when the plan's ramp to 50 mm/s is shorter than the window.
     let x = &rep.axes[0];
-    assert!((x.a_max_mm_s2 - jc.u_max_mm_s2).abs() < 1.0, "{x:?}");
-    let ramp = jc.u_max_mm_s2 / jc.window_s;
+    let a_peak = u.min(50.0 / jc.window_s);
+    assert!((x.a_max_mm_s2 - a_peak).abs() < 1.0, "{x:?} {u} {jc:?}");
+    let ramp = u / jc.window_s;
     assert!((x.j_max_mm_s3 - ramp).abs() < 0.02 * ramp, "{x:?}");
     // The trapezoid on the same line jumps in acceleration: its jerk is far above.
     let (trap, _) = run(&tp, &PlanOptions::default(), &InterpOptions::default());
