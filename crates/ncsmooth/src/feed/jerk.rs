@@ -391,10 +391,12 @@ pub fn planned_duration(path: &Toolpath, opts: &PlanOptions) -> f64 {
 }
 
 /// Steps of the local search of [`fastest_split`] around the best candidate: the factor
-/// on `u_share` (and its inverse) and the change of `jt_share`, one round each.
-pub const SPLIT_REFINE_STEPS: [(f64, f64); 2] = [(0.7, 0.1), (0.85, 0.05)];
+/// on `u_share` (and its inverse) and the change of `jt_share`, one round each, halving
+/// (four rounds rather than two: 0 to 0.9 % shorter cycles on butterfly_1000 and crown).
+pub const SPLIT_REFINE_STEPS: [(f64, f64); 4] =
+    [(0.7, 0.1), (0.85, 0.05), (0.92, 0.025), (0.96, 0.0125)];
 /// Most program blocks [`fastest_split`] plans with: a longer program is judged by its
-/// first blocks, so that the search costs at most some 14 planning passes of this many
+/// first blocks, so that the search costs at most 22 planning passes of this many
 /// blocks (on linuxcnc_stellabee1, 168 k blocks, a whole pass takes some 18 s).
 pub const SPLIT_SEARCH_MAX_BLOCKS: usize = 8192;
 /// Range of the shares the local search of [`fastest_split`] keeps to.
