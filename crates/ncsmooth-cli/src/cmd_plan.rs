@@ -483,6 +483,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         period_s: a.period,
         chord_error_mm: a.chord_error,
         junction_dev_mm: a.junction_dev,
+        jerk_split: None,
     };
     popts
         .validate()

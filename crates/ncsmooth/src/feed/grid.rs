@@ -545,18 +545,11 @@ impl<'a> PathIndex<'a> {
 
 /// The caps the planner uses for `opts`.
 pub fn caps_of(opts: &PlanOptions) -> Caps {
-    let jerk = opts.jerk_caps();
-    // Jerk mode: the curvature term gets its share of the acceleration limits.
-    let share = if jerk.is_some() {
-        super::jerk::CURVATURE_ACC_SHARE
-    } else {
-        1.0
-    };
+    // Jerk mode: the curvature term's share of the acceleration limits is a speed cap
+    // at each point ([`super::jerk::JerkCaps::curvature_cap_x`]).
     Caps {
-        jerk,
-        acc: opts
-            .acc_mm_s2
-            .map(|a| super::planned_acc(a, opts.period_s) * share),
+        jerk: opts.jerk_caps(),
+        acc: opts.acc_mm_s2.map(|a| super::planned_acc(a, opts.period_s)),
         vaxis: opts
             .vaxis_mm_s
             .map(|v| v.map(|x| super::planned_vaxis(x, opts.period_s))),
@@ -599,6 +592,7 @@ fn joint_after(a: &Segment, b: &Segment, opts: &PlanOptions, caps: &Caps) -> Aft
     let (ka, kb) = (curvature_at(a, 1.0), curvature_at(b, 0.0));
     let jerk_cap = caps.jerk.map_or(f64::INFINITY, |j| {
         j.speed_cap_x(
+            abs_max(ta, tb),
             abs_max(ka, kb),
             abs_max(end_rate(a, true), end_rate(b, false)),
             kb - ka,
@@ -1166,7 +1160,13 @@ impl<'p, 'a> GridGen<'p, 'a> {
                             if p < n { rate(p) } else { Vec3::ZERO },
                         );
                         let k = if p == 0 { mv[0].0.k0 } else { mv[p - 1].0.k1 };
-                        let c = j.speed_cap_x(k, r, Vec3::ZERO);
+                        // The largest tangent components of the two intervals' ends.
+                        let t = abs_max(
+                            p.checked_sub(1)
+                                .map_or(Vec3::ZERO, |i| abs_max(mv[i].0.t0, mv[i].0.t1)),
+                            mv.get(p).map_or(Vec3::ZERO, |iv| abs_max(iv.0.t0, iv.0.t1)),
+                        );
+                        let c = j.speed_cap_x(t, k, r, Vec3::ZERO);
                         if p == 0 {
                             start_cap = start_cap.min(c);
                         } else {

@@ -44,9 +44,13 @@ pub fn point_cap_x_kappa(t: Vec3, k: Vec3, kappa: f64, vcap: f64, caps: &Caps) -
             }
         }
         let ki = k[i].abs();
-        if ki > NEGLIGIBLE {
+        if ki > NEGLIGIBLE && caps.jerk.is_none() {
             x = x.min(caps.acc[i] / ki);
         }
+    }
+    if let Some(j) = &caps.jerk {
+        // Jerk mode: the curvature term takes what the tangential limit leaves.
+        x = x.min(j.curvature_cap_x(&caps.acc, t, k));
     }
     if kappa > NEGLIGIBLE {
         let r = 1.0 / kappa;

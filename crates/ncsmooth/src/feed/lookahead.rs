@@ -189,6 +189,43 @@ fn dilate(
     );
 }
 
+/// Jerk mode: the tangential limit of each straight interval of a window (see
+/// [`super::jerk`], point 6): `u_hi` when no curved interval lies within `reach` of it
+/// (`curved_behind`: the end of the last curved interval before the window; beyond the
+/// window's last point, unless `ended`, everything counts as curved), else `u_lo`.
+#[allow(clippy::too_many_arguments)]
+fn line_accels(
+    pts: &[GridPoint],
+    ivs: &mut [Interval],
+    ended: bool,
+    curved_behind: f64,
+    reach: f64,
+    u_lo: f64,
+    u_hi: f64,
+    next_curved: &mut Vec<f64>,
+) {
+    let n = ivs.len();
+    // Start of the first curved interval after each interval.
+    next_curved.clear();
+    next_curved.resize(n, 0.0);
+    let mut next = if ended { f64::INFINITY } else { pts[n].s };
+    for k in (0..n).rev() {
+        next_curved[k] = next;
+        if !ivs[k].straight {
+            next = pts[k].s;
+        }
+    }
+    let mut prev = curved_behind;
+    for k in 0..n {
+        if ivs[k].straight {
+            let far = pts[k].s - prev > reach && next_curved[k] - pts[k + 1].s > reach;
+            ivs[k].u_line = if far { u_hi.max(u_lo) } else { u_lo };
+        } else {
+            prev = pts[k + 1].s;
+        }
+    }
+}
+
 /// Splits interval `iv` travelled from `x = p` to `x = q` into constant-acceleration
 /// pieces: one for a curved interval (x linear in s), up to three (accelerate, cruise,
 /// decelerate) for a straight one.
@@ -277,6 +314,10 @@ fn plan_with(
         .jerk
         .map(|j| super::jerk::dilation_radius_mm(opts.feed_mm_s.max(opts.rapid()), j.window_s));
     let mut tail: Vec<(f64, f64)> = Vec::new();
+    // Jerk mode: end of the last curved interval committed (lines far from curves take
+    // the larger tangential limit, see `super::jerk` point 6), and a work array.
+    let mut curved_behind = f64::NEG_INFINITY;
+    let mut next_curved: Vec<f64> = Vec::new();
     let (mut src, mut capv, mut dil, mut xin) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut out: Vec<ProfilePiece> = Vec::new();
     let mut x0: f64 = 0.0;
@@ -306,6 +347,18 @@ fn plan_with(
                     capv.clear();
                     capv.extend(pts.iter().map(|p| p.x_cap));
                 }
+            }
+            if let (Some(j), Some(r)) = (caps.jerk, radius) {
+                line_accels(
+                    &pts,
+                    &mut ivs,
+                    ended,
+                    curved_behind,
+                    r,
+                    j.u_max_mm_s2,
+                    j.line_u_max(&caps.acc),
+                    &mut next_curved,
+                );
             }
             backward(&capv, &ivs, &caps, &mut bwd, &mut free);
             if ended {
@@ -380,6 +433,9 @@ fn plan_with(
                 tail.extend((0..=commit).map(|j| (pts[j].s, src[j])));
                 let keep = tail.partition_point(|&(s, _)| s < s_c - r);
                 tail.drain(..keep);
+            }
+            if let Some(k) = (0..commit).rev().find(|&k| !ivs[k].straight) {
+                curved_behind = pts[k + 1].s;
             }
             x0 = xf[commit];
             pts.drain(..commit);
@@ -544,6 +600,56 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn jerk_mode_lines_far_from_curves_take_the_line_limit() {
+        // 60 mm along X, a quarter-circle-like cubic turn of radius about 2 mm, 60 mm
+        // along Y: straight intervals within V W of the curve accelerate at most at U,
+        // those farther away up to the line limit, never more.
+        let a = Vec3::new(60.0, 0.0, 0.0);
+        let b = Vec3::new(62.0, 2.0, 0.0);
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        tp.push_move(Move::feed(Line::new(Vec3::ZERO, a), None, 1));
+        let k = 0.5523 * 2.0;
+        tp.push_move(Move::feed(
+            crate::geom::CubicBez::new(a, a + Vec3::X * k, b - Vec3::Y * k, b),
+            None,
+            2,
+        ));
+        tp.push_move(Move::feed(
+            Line::new(b, b + Vec3::new(0.0, 60.0, 0.0)),
+            None,
+            3,
+        ));
+        let opts = PlanOptions {
+            jerk_mm_s3: Some([5000.0; 3]),
+            ..Default::default()
+        };
+        let caps = super::super::grid::caps_of(&opts);
+        let j = caps.jerk.unwrap();
+        let (u_lo, u_hi) = (j.u_max_mm_s2, j.line_u_max(&caps.acc));
+        assert!(u_hi > 1.5 * u_lo, "{u_lo} {u_hi}");
+        let reach = opts.feed_mm_s * j.window_s;
+        let curve0 = 60.0;
+        let (ev, _) = run(&tp, &opts);
+        let (mut fast, mut near) = (0.0f64, 0.0f64);
+        for e in &ev {
+            if let PlanEvent::Piece(p) = e {
+                let acc = p.acc().abs();
+                assert!(acc <= u_hi * (1.0 + 1e-9), "{p:?}");
+                // Pieces touching the curve's neighbourhood (the curve from 60 mm to about
+                // 63.2 mm): at most U.
+                let (lo, hi) = (p.s0, p.s0 + p.ds);
+                if hi > curve0 - reach && lo < curve0 + 3.3 + reach {
+                    near = near.max(acc);
+                } else {
+                    fast = fast.max(acc);
+                }
+            }
+        }
+        assert!(near <= u_lo * (1.0 + 1e-9), "{near} {u_lo}");
+        assert!(fast > u_lo * 1.5, "{fast} {u_hi}");
     }
 
     #[test]

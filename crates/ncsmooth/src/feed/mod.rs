@@ -183,6 +183,11 @@ pub struct PlanOptions {
     /// Junction deviation (mm) of grbl's corner rule; `None` (default) makes every tangent
     /// break an exact stop.
     pub junction_dev_mm: Option<f64>,
+    /// Jerk mode: the split of the limits ([`jerk::JerkSplit`]); `None` (default): the
+    /// planning run ([`crate::interp::execute`]) takes the fastest of
+    /// [`jerk::SPLIT_CANDIDATES`] for the path ([`jerk::fastest_split`]); planning
+    /// functions given `None` directly use [`jerk::JerkSplit::DEFAULT`].
+    pub jerk_split: Option<jerk::JerkSplit>,
 }
 
 impl Default for PlanOptions {
@@ -196,6 +201,7 @@ impl Default for PlanOptions {
             period_s: 0.001,
             chord_error_mm: 0.001,
             junction_dev_mm: None,
+            jerk_split: None,
         }
     }
 }
@@ -313,11 +319,12 @@ impl PlanOptions {
     /// The jerk-mode caps, when jerk limiting is asked for (options must be valid).
     pub fn jerk_caps(&self) -> Option<jerk::JerkCaps> {
         self.jerk_mm_s3.map(|j| {
-            jerk::JerkCaps::new(
+            jerk::JerkCaps::with_split(
                 self.acc_mm_s2.map(|a| planned_acc(a, self.period_s)),
                 j,
                 self.period_s,
                 self.feed_mm_s.max(self.rapid()),
+                self.jerk_split.unwrap_or(jerk::JerkSplit::DEFAULT),
             )
         })
     }

@@ -469,6 +469,17 @@ pub fn execute_into<S: SetpointSink + Send>(
 ) -> Result<(PlanReport, S), PlanError> {
     popts.validate().map_err(PlanError::Options)?;
     let clock = Instant::now();
+    // Jerk mode without a given split: the fastest candidate for this path.
+    let tuned;
+    let popts = if popts.jerk_mm_s3.is_some() && popts.jerk_split.is_none() {
+        tuned = PlanOptions {
+            jerk_split: Some(crate::feed::jerk::fastest_split(path, popts)),
+            ..popts.clone()
+        };
+        &tuned
+    } else {
+        popts
+    };
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
     let period = popts.period_s;

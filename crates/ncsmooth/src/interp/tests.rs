@@ -352,28 +352,41 @@ fn assert_jerk_limits(rep: &PlanReport) {
 
 #[test]
 fn jerk_line_is_the_averaged_trapezoid() {
-    // 100 mm along X: the plan is a trapezoid at U (the tangential share of the
-    // acceleration); the setpoints follow its moving average over W, resting W at the end.
+    // 100 mm along X: no curve anywhere, so the plan is a trapezoid at the line limit
+    // (`line_u_max`, point 6 of feed::jerk); the setpoints follow its moving average over
+    // W, resting W at the end.
     let tp = Toolpath::from_polyline(&[Vec3::ZERO, Vec3::new(100.0, 0.0, 0.0)], None);
     let p = PlanOptions {
         jerk_mm_s3: Some([5000.0; 3]),
         ..Default::default()
     };
-    let jc = p.jerk_caps().unwrap();
     let (rep, r) = run(&tp, &p, &InterpOptions::default());
     check_invariants(&tp, &rep, &r);
     assert_jerk_limits(&rep);
-    let plan = 100.0 / 50.0 + 50.0 / jc.u_max_mm_s2;
+    // The run chose the split (the fastest candidate for the path) and reports it.
+    assert!(rep.options.jerk_split.is_some());
+    let jc = rep.options.jerk_caps().unwrap();
+    // The duration the choice was made by is the cycle time.
+    let planned = crate::feed::jerk::planned_duration(&tp, &rep.options);
+    assert!(
+        (planned - rep.cycle_time_s).abs() <= p.period_s + 1e-9,
+        "{planned}"
+    );
+    let u = jc.line_u_max(&p.acc_mm_s2.map(|a| crate::feed::planned_acc(a, p.period_s)));
+    assert!(u > jc.u_max_mm_s2, "{u} {jc:?}");
+    let plan = 100.0 / 50.0 + 50.0 / u;
     let expect = ((plan + jc.window_s) / p.period_s - 1e-9).ceil() * p.period_s;
     assert!(
         (rep.cycle_time_s - expect).abs() <= p.period_s + 1e-9,
         "{}",
         rep.cycle_time_s
     );
-    // The S-curve: the acceleration ramps at U / W (the box filter of a step in u).
+    // The S-curve: the acceleration ramps at u / W (the box filter of a step in u) up to
+    // u, or to 50 / W when the plan's ramp to 50 mm/s is shorter than the window.
     let x = &rep.axes[0];
-    assert!((x.a_max_mm_s2 - jc.u_max_mm_s2).abs() < 1.0, "{x:?}");
-    let ramp = jc.u_max_mm_s2 / jc.window_s;
+    let a_peak = u.min(50.0 / jc.window_s);
+    assert!((x.a_max_mm_s2 - a_peak).abs() < 1.0, "{x:?} {u} {jc:?}");
+    let ramp = u / jc.window_s;
     assert!((x.j_max_mm_s3 - ramp).abs() < 0.02 * ramp, "{x:?}");
     // The trapezoid on the same line jumps in acceleration: its jerk is far above.
     let (trap, _) = run(&tp, &PlanOptions::default(), &InterpOptions::default());
@@ -878,5 +891,42 @@ proptest! {
             break;
         }
         prop_assert!(planned);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// Any split of the limits ([`crate::feed::jerk::JerkSplit`]) holds every per-axis
+    /// acceleration and jerk limit on blended paths (the split search only picks among
+    /// them): measured by finite differences on the printed setpoints.
+    #[test]
+    fn every_jerk_split_holds_the_limits(
+        pts in prop::collection::vec((-3.0f64..3.0, -3.0f64..3.0, -0.5f64..0.5), 2..5),
+        u_share in 0.02f64..0.95,
+        jt_share in 0.02f64..0.95,
+        acc in log_uniform(50.0, 5000.0),
+        jerk in log_uniform(500.0, 100000.0),
+        feed in log_uniform(5.0, 200.0),
+    ) {
+        let pts: Vec<Vec3> = pts.into_iter().map(|(x, y, z)| Vec3::new(x, y, z)).collect();
+        let tp = blended(&pts, 0.5);
+        let p = PlanOptions {
+            feed_mm_s: feed,
+            acc_mm_s2: [acc, acc * 0.7, acc * 1.3],
+            jerk_mm_s3: Some([jerk, jerk * 1.5, jerk * 0.8]),
+            jerk_split: Some(crate::feed::jerk::JerkSplit { u_share, jt_share }),
+            ..Default::default()
+        };
+        let (rep, out) = execute(&tp, &p, &InterpOptions::default(), Vec::new()).unwrap();
+        let r = rows(&out);
+        check_invariants(&tp, &rep, &r);
+        let m = fd_maxima(&r);
+        let j = p.jerk_mm_s3.unwrap();
+        for i in 0..3 {
+            prop_assert!(m[1][i] <= p.acc_mm_s2[i], "axis {i} acc {} > {}", m[1][i], p.acc_mm_s2[i]);
+            prop_assert!(m[2][i] <= j[i], "axis {i} jerk {} > {}", m[2][i], j[i]);
+        }
+        prop_assert!(rep.limits_held, "{:?}", rep.axes);
     }
 }
