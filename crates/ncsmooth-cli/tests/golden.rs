@@ -1,4 +1,5 @@
-//! Golden outputs: the setpoints of `butterfly_1000` and `crown` for every method and the
+//! Golden outputs: the setpoints of `butterfly_1000` and `crown` for every method (and of
+//! `crown` in jerk mode) and the
 //! smoothed G-code of every shared program for every method, pinned by an FNV-1a hash of
 //! their bytes (the G-code's trailing `;` header lines, which name paths and the version,
 //! left out) in `tests/golden/outputs.txt`. A change of any output byte fails the test
@@ -84,6 +85,19 @@ fn outputs(data: &Path, dir: &Path) -> BTreeMap<String, String> {
             put(format!("setpoints {profile} {m}"), bytes.as_deref());
         }
     }
+    // Jerk mode (issue 17's 50 mm/s, 500 mm/s^2, 5000 mm/s^3) on crown.
+    let f = data.join("profiles/crown.ngc");
+    for m in METHODS {
+        let csv = dir.join(format!("crown_{m}_jerk.csv"));
+        let ok = run(&[
+            &["plan", f.to_str().unwrap(), "--method", m],
+            &PLAN_ARGS[..],
+            &["--jerk", "5000", "--setpoints", csv.to_str().unwrap()],
+        ]
+        .concat());
+        let bytes = ok.then(|| std::fs::read(&csv).unwrap());
+        put(format!("setpoints crown-jerk5000 {m}"), bytes.as_deref());
+    }
     let mut programs: Vec<PathBuf> = ["gcode", "more-gcode"]
         .iter()
         .filter_map(|d| std::fs::read_dir(data.join(d)).ok())
@@ -159,7 +173,7 @@ fn outputs_equal_the_golden_files() {
         changed.len(),
         changed.join("\n")
     );
-    assert!(got.len() >= 10 + 5 * 13, "only {} outputs", got.len());
+    assert!(got.len() >= 15 + 5 * 13, "only {} outputs", got.len());
 }
 
 /// The header lines are cut, and only those.
