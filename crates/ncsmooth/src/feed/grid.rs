@@ -76,7 +76,7 @@ use crate::geom::{
     arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveCurvature, ParamCurveDeriv,
     PreparedNurbs, PreparedTrig, Segment, Vec3,
 };
-use crate::path::{Block, EventKind, ExtraAxes, MoveKind, Toolpath};
+use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
 use std::sync::mpsc::{Receiver, SyncSender};
 
@@ -385,161 +385,196 @@ impl<'a> PathIndex<'a> {
     /// rule). `opts` must be valid.
     pub fn new(path: &'a Toolpath, opts: &PlanOptions) -> PathIndex<'a> {
         let caps = caps_of(opts);
-        let mut moves: Vec<PlanMove<'a>> = Vec::new();
-        let mut pending: Option<(StopReason, f64)> = None;
-        let mut lead = None;
-        let mut s = 0.0;
-        // Extra axes: programmed values and the machine offset (`G92 E`).
-        let mut prog: Option<ExtraAxes> = None;
-        let mut offset: ExtraAxes = [0.0; 7];
-        let machine =
-            |v: ExtraAxes, off: &ExtraAxes| -> ExtraAxes { std::array::from_fn(|i| v[i] + off[i]) };
-        let extra_acc = opts.acc_mm_s2.iter().copied().fold(f64::INFINITY, f64::min);
-        let mut rests: Vec<ExtraRest> = Vec::new();
-        let mut rest: Option<ExtraRest> = None;
-        let add_stop = |pending: &mut Option<(StopReason, f64)>, r: StopReason, d: f64| {
-            *pending = Some(match *pending {
-                Some((pr, pd)) => (
-                    if pr == StopReason::Dwell || r == StopReason::Dwell {
-                        StopReason::Dwell
-                    } else {
-                        StopReason::Event
-                    },
-                    pd + d,
-                ),
-                None => (r, d),
-            });
-        };
-        // Appends an extra-axis motion to the stop being collected.
-        let extra_motion = |pending: &mut Option<(StopReason, f64)>,
-                            rest: &mut Option<ExtraRest>,
-                            s: f64,
-                            from: ExtraAxes,
-                            to: ExtraAxes,
-                            rate: f64| {
-            let t0 = pending.map_or(0.0, |p| p.1);
-            let m = ExtraMotion::new(t0, from, to, rate, extra_acc);
-            rest.get_or_insert_with(|| ExtraRest {
-                s,
-                start: from,
-                motions: Vec::new(),
-            })
-            .motions
-            .push(m);
-            add_stop(pending, StopReason::Event, m.duration);
-        };
         let lens = move_lens_and_joints(path, opts, &caps);
-        // Number of the current move (in `lens`) and of the last one indexed.
+        let mut b = IndexBuilder {
+            opts,
+            caps: &caps,
+            moves: Vec::new(),
+            pending: None,
+            lead: None,
+            s: 0.0,
+            prog: None,
+            offset: [0.0; 7],
+            extra_acc: opts.acc_mm_s2.iter().copied().fold(f64::INFINITY, f64::min),
+            rests: Vec::new(),
+            rest: None,
+            prev_no: None,
+        };
+        // Number of the current move (in `lens`).
         let mut move_no = 0usize;
-        let mut prev_no: Option<usize> = None;
-        for b in &path.blocks {
-            match b {
-                Block::Event(e) => match e.kind {
-                    EventKind::Dwell(t) => {
-                        let t = if t.is_finite() && t > 0.0 { t } else { 0.0 };
-                        add_stop(&mut pending, StopReason::Dwell, t);
-                    }
-                    EventKind::ExtraReset { to } => {
-                        if let Some(p) = prog {
-                            let m = machine(p, &offset);
-                            offset = std::array::from_fn(|i| m[i] - to[i]);
-                        }
-                        prog = Some(to);
-                        add_stop(&mut pending, StopReason::Event, 0.0);
-                    }
-                    EventKind::ExtraMove { to, feed_per_s } => {
-                        let from = machine(prog.unwrap_or(to), &offset);
-                        let rate = feed_per_s
-                            .filter(|f| *f > 0.0 && f.is_finite())
-                            .unwrap_or_else(|| opts.rapid());
-                        prog = Some(to);
-                        extra_motion(&mut pending, &mut rest, s, from, machine(to, &offset), rate);
-                    }
-                    _ => add_stop(&mut pending, StopReason::Event, 0.0),
-                },
+        for block in &path.blocks {
+            match block {
+                Block::Event(e) => b.event(&e.kind),
                 Block::Move(m) => {
-                    let extra_start = prog.or(m.extra).map(|v| machine(v, &offset));
-                    let extra_end = m.extra.map(|v| machine(v, &offset));
-                    prog = m.extra.or(prog);
-                    let this_no = move_no;
+                    b.push_move(m, move_no, &lens);
                     move_no += 1;
-                    let len = lens[this_no].0;
-                    if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
-                        // A zero-length move that changes the extra axes moves them alone.
-                        if let (Some(a), Some(b)) = (extra_start, extra_end) {
-                            if a != b {
-                                let rate = match m.kind {
-                                    MoveKind::Rapid => None,
-                                    MoveKind::Feed => m.feed_mm_s,
-                                }
-                                .filter(|f| *f > 0.0 && f.is_finite())
-                                .unwrap_or_else(|| opts.rapid());
-                                extra_motion(&mut pending, &mut rest, s, a, b, rate);
-                            }
-                        }
-                        continue;
-                    }
-                    let vcap = match m.kind {
-                        MoveKind::Rapid => opts.rapid(),
-                        MoveKind::Feed => m
-                            .feed_mm_s
-                            .filter(|f| *f > 0.0 && f.is_finite())
-                            .map_or(opts.feed_mm_s, |f| f.min(opts.feed_mm_s)),
-                    };
-                    if let Some(prev) = moves.last_mut() {
-                        prev.after = match pending.take() {
-                            Some((reason, dwell_s)) => After::Stop { reason, dwell_s },
-                            None => match prev_no {
-                                // The joint computed with the lengths.
-                                Some(p) if p + 1 == this_no => lens[p].1.expect("a move follows"),
-                                _ => joint_after(prev.segment, &m.segment, opts, &caps),
-                            },
-                        };
-                    } else if let Some(p) = pending.take() {
-                        lead = Some(p);
-                    }
-                    rests.extend(rest.take());
-                    moves.push(PlanMove {
-                        segment: &m.segment,
-                        kind: m.kind,
-                        vcap_mm_s: vcap,
-                        s0: s,
-                        len,
-                        extra: extra_end.zip(extra_start).map(|(e, st)| (st, e)),
-                        after: After::Stop {
-                            reason: StopReason::End,
-                            dwell_s: 0.0,
-                        },
-                    });
-                    prev_no = Some(this_no);
-                    s += len;
                 }
             }
         }
-        if let Some((_, d)) = pending {
-            match moves.last_mut() {
+        if let Some((_, d)) = b.pending {
+            match b.moves.last_mut() {
                 Some(m) => {
                     m.after = After::Stop {
                         reason: StopReason::End,
                         dwell_s: d,
                     }
                 }
-                None => lead = pending,
+                None => b.lead = b.pending,
             }
         }
-        rests.extend(rest.take());
+        b.rests.extend(b.rest.take());
         PathIndex {
-            moves,
+            moves: b.moves,
             start: path.start,
-            lead,
-            total_len: s,
+            lead: b.lead,
+            total_len: b.s,
             extra_axes_mask: path.extra_axes_mask,
-            rests,
+            rests: b.rests,
         }
     }
     /// End point of the program.
     pub fn end_point(&self) -> Vec3 {
         self.moves.last().map_or(self.start, |m| m.segment.end())
+    }
+}
+
+/// The state of [`PathIndex::new`] while it walks the program's blocks.
+struct IndexBuilder<'a, 'o> {
+    opts: &'o PlanOptions,
+    caps: &'o Caps,
+    moves: Vec<PlanMove<'a>>,
+    /// The stop being collected before the next move (reason, time at rest).
+    pending: Option<(StopReason, f64)>,
+    lead: Option<(StopReason, f64)>,
+    s: f64,
+    /// Extra axes: programmed values and the machine offset (`G92 E`).
+    prog: Option<ExtraAxes>,
+    offset: ExtraAxes,
+    extra_acc: f64,
+    rests: Vec<ExtraRest>,
+    rest: Option<ExtraRest>,
+    /// Number of the last move indexed.
+    prev_no: Option<usize>,
+}
+
+impl<'a> IndexBuilder<'a, '_> {
+    fn machine(&self, v: ExtraAxes) -> ExtraAxes {
+        std::array::from_fn(|i| v[i] + self.offset[i])
+    }
+
+    fn add_stop(&mut self, r: StopReason, d: f64) {
+        self.pending = Some(match self.pending {
+            Some((pr, pd)) => (
+                if pr == StopReason::Dwell || r == StopReason::Dwell {
+                    StopReason::Dwell
+                } else {
+                    StopReason::Event
+                },
+                pd + d,
+            ),
+            None => (r, d),
+        });
+    }
+
+    /// Appends an extra-axis motion to the stop being collected.
+    fn extra_motion(&mut self, from: ExtraAxes, to: ExtraAxes, rate: f64) {
+        let t0 = self.pending.map_or(0.0, |p| p.1);
+        let m = ExtraMotion::new(t0, from, to, rate, self.extra_acc);
+        let s = self.s;
+        self.rest
+            .get_or_insert_with(|| ExtraRest {
+                s,
+                start: from,
+                motions: Vec::new(),
+            })
+            .motions
+            .push(m);
+        self.add_stop(StopReason::Event, m.duration);
+    }
+
+    fn event(&mut self, kind: &EventKind) {
+        match *kind {
+            EventKind::Dwell(t) => {
+                let t = if t.is_finite() && t > 0.0 { t } else { 0.0 };
+                self.add_stop(StopReason::Dwell, t);
+            }
+            EventKind::ExtraReset { to } => {
+                if let Some(p) = self.prog {
+                    let m = self.machine(p);
+                    self.offset = std::array::from_fn(|i| m[i] - to[i]);
+                }
+                self.prog = Some(to);
+                self.add_stop(StopReason::Event, 0.0);
+            }
+            EventKind::ExtraMove { to, feed_per_s } => {
+                let from = self.machine(self.prog.unwrap_or(to));
+                let rate = feed_per_s
+                    .filter(|f| *f > 0.0 && f.is_finite())
+                    .unwrap_or_else(|| self.opts.rapid());
+                self.prog = Some(to);
+                self.extra_motion(from, self.machine(to), rate);
+            }
+            _ => self.add_stop(StopReason::Event, 0.0),
+        }
+    }
+
+    /// Indexes move number `this_no` (its length and joint in `lens`).
+    fn push_move(&mut self, m: &'a Move, this_no: usize, lens: &[(f64, Option<After>)]) {
+        let opts = self.opts;
+        let extra_start = self.prog.or(m.extra).map(|v| self.machine(v));
+        let extra_end = m.extra.map(|v| self.machine(v));
+        self.prog = m.extra.or(self.prog);
+        let len = lens[this_no].0;
+        if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
+            // A zero-length move that changes the extra axes moves them alone.
+            if let (Some(a), Some(b)) = (extra_start, extra_end) {
+                if a != b {
+                    let rate = match m.kind {
+                        MoveKind::Rapid => None,
+                        MoveKind::Feed => m.feed_mm_s,
+                    }
+                    .filter(|f| *f > 0.0 && f.is_finite())
+                    .unwrap_or_else(|| opts.rapid());
+                    self.extra_motion(a, b, rate);
+                }
+            }
+            return;
+        }
+        let vcap = match m.kind {
+            MoveKind::Rapid => opts.rapid(),
+            MoveKind::Feed => m
+                .feed_mm_s
+                .filter(|f| *f > 0.0 && f.is_finite())
+                .map_or(opts.feed_mm_s, |f| f.min(opts.feed_mm_s)),
+        };
+        let (prev_no, caps) = (self.prev_no, self.caps);
+        if let Some(prev) = self.moves.last_mut() {
+            prev.after = match self.pending.take() {
+                Some((reason, dwell_s)) => After::Stop { reason, dwell_s },
+                None => match prev_no {
+                    // The joint computed with the lengths.
+                    Some(p) if p + 1 == this_no => lens[p].1.expect("a move follows"),
+                    _ => joint_after(prev.segment, &m.segment, opts, caps),
+                },
+            };
+        } else if let Some(p) = self.pending.take() {
+            self.lead = Some(p);
+        }
+        self.rests.extend(self.rest.take());
+        self.moves.push(PlanMove {
+            segment: &m.segment,
+            kind: m.kind,
+            vcap_mm_s: vcap,
+            s0: self.s,
+            len,
+            extra: extra_end.zip(extra_start).map(|(e, st)| (st, e)),
+            after: After::Stop {
+                reason: StopReason::End,
+                dwell_s: 0.0,
+            },
+        });
+        self.prev_no = Some(this_no);
+        self.s += len;
     }
 }
 
