@@ -765,6 +765,50 @@ pub fn arc_step(caps: &Caps) -> f64 {
         .min(MAX_TURN_DEG.to_radians())
 }
 
+/// Per-axis velocity over a whole interval: both of its ends take the cap of the largest
+/// tangent component inside it (the point caps alone let `v |T_i|` bulge between two
+/// binding ends). `mv` are one move's intervals with their end caps; `start_cap` the cap at its start.
+fn vaxis_caps(mv: &mut [(Interval, f64)], v: &[f64; 3], start_cap: &mut f64) {
+    let n = mv.len();
+    for k in 0..n {
+        let c = vaxis_interval_cap(&mv[k].0, v);
+        if k == 0 {
+            *start_cap = start_cap.min(c);
+        } else {
+            mv[k - 1].1 = mv[k - 1].1.min(c);
+        }
+        mv[k].1 = mv[k].1.min(c);
+    }
+}
+
+/// Jerk caps at every point: its curvature, and the curvature rate (finite difference
+/// over each interval) of the intervals beside it. `mv` are one move's intervals (at least one) with their end caps; `start_cap` the
+/// cap at its start.
+fn jerk_caps(mv: &mut [(Interval, f64)], j: &super::jerk::JerkCaps, start_cap: &mut f64) {
+    let n = mv.len();
+    let rates: Vec<Vec3> = mv.iter().map(|(iv, _)| (iv.k1 - iv.k0) / iv.ds).collect();
+    let rate = |i: usize| rates[i];
+    for p in 0..=n {
+        let r = abs_max(
+            p.checked_sub(1).map_or(Vec3::ZERO, rate),
+            if p < n { rate(p) } else { Vec3::ZERO },
+        );
+        let k = if p == 0 { mv[0].0.k0 } else { mv[p - 1].0.k1 };
+        // The largest tangent components of the two intervals' ends.
+        let t = abs_max(
+            p.checked_sub(1)
+                .map_or(Vec3::ZERO, |i| abs_max(mv[i].0.t0, mv[i].0.t1)),
+            mv.get(p).map_or(Vec3::ZERO, |iv| abs_max(iv.0.t0, iv.0.t1)),
+        );
+        let c = j.speed_cap_x(t, k, r, Vec3::ZERO);
+        if p == 0 {
+            *start_cap = start_cap.min(c);
+        } else {
+            mv[p - 1].1 = mv[p - 1].1.min(c);
+        }
+    }
+}
+
 /// Cap on `x = v^2` from the per-axis velocity limits `v` over a whole curved interval: a
 /// tangent component turning by `phi` between two checks exceeds the larger of their
 /// values by at most the factor `1 / cos(phi / 2)` between them.
@@ -1165,48 +1209,12 @@ impl<'p, 'a> GridGen<'p, 'a> {
                         push(out, ds * (1.0 - f), q, b, None);
                     }
                 }
-                if let (Some(v), false) = (caps.vaxis, out.len() == base) {
-                    // Per-axis velocity over a whole interval: both of its ends take the
-                    // cap of the largest tangent component inside it (the point caps
-                    // alone let `v |T_i|` bulge between two binding ends).
-                    let mv = &mut out[base..];
-                    let n = mv.len();
-                    for k in 0..n {
-                        let c = vaxis_interval_cap(&mv[k].0, &v);
-                        if k == 0 {
-                            start_cap = start_cap.min(c);
-                        } else {
-                            mv[k - 1].1 = mv[k - 1].1.min(c);
-                        }
-                        mv[k].1 = mv[k].1.min(c);
+                if out.len() > base {
+                    if let Some(v) = caps.vaxis {
+                        vaxis_caps(&mut out[base..], &v, &mut start_cap);
                     }
-                }
-                if let (Some(j), false) = (caps.jerk, out.len() == base) {
-                    // Jerk caps at every point: its curvature, and the curvature rate
-                    // (finite difference over each interval) of the intervals beside it.
-                    let mv = &mut out[base..];
-                    let n = mv.len();
-                    let rates: Vec<Vec3> =
-                        mv.iter().map(|(iv, _)| (iv.k1 - iv.k0) / iv.ds).collect();
-                    let rate = |i: usize| rates[i];
-                    for p in 0..=n {
-                        let r = abs_max(
-                            p.checked_sub(1).map_or(Vec3::ZERO, rate),
-                            if p < n { rate(p) } else { Vec3::ZERO },
-                        );
-                        let k = if p == 0 { mv[0].0.k0 } else { mv[p - 1].0.k1 };
-                        // The largest tangent components of the two intervals' ends.
-                        let t = abs_max(
-                            p.checked_sub(1)
-                                .map_or(Vec3::ZERO, |i| abs_max(mv[i].0.t0, mv[i].0.t1)),
-                            mv.get(p).map_or(Vec3::ZERO, |iv| abs_max(iv.0.t0, iv.0.t1)),
-                        );
-                        let c = j.speed_cap_x(t, k, r, Vec3::ZERO);
-                        if p == 0 {
-                            start_cap = start_cap.min(c);
-                        } else {
-                            mv[p - 1].1 = mv[p - 1].1.min(c);
-                        }
+                    if let Some(j) = caps.jerk {
+                        jerk_caps(&mut out[base..], &j, &mut start_cap);
                     }
                 }
                 start_cap
