@@ -284,6 +284,43 @@ pub fn plan_stream(
 /// Fewest moves for which [`plan_stream`] computes the grid on a thread of its own.
 pub const GRID_THREAD_MIN_MOVES: usize = 4096;
 
+/// The forward pass over the first `commit` intervals from `x0` under the backward limits
+/// `bwd`: the speeds at the points into `xf`, the profile pieces into `out`. In jerk mode
+/// `dilated` holds each interval's dilated inside cap.
+#[allow(clippy::too_many_arguments)]
+fn forward_prefix(
+    pts: &[GridPoint],
+    ivs: &[Interval],
+    bwd: &[f64],
+    commit: usize,
+    x0: f64,
+    dilated: Option<&[f64]>,
+    caps: &super::limits::Caps,
+    xf: &mut Vec<f64>,
+    out: &mut Vec<ProfilePiece>,
+) {
+    xf.clear();
+    xf.push(x0.min(bwd[0]).max(0.0));
+    out.clear();
+    for k in 0..commit {
+        let q = ivs[k].forward(xf[k], bwd[k + 1], caps);
+        xf.push(q);
+        // (An interval is some 200 bytes: not copied unless it changes.)
+        let changed;
+        let iv = match dilated {
+            Some(xin) => {
+                changed = Interval {
+                    x_inside: xin[k],
+                    ..ivs[k]
+                };
+                &changed
+            }
+            None => &ivs[k],
+        };
+        pieces(iv, pts[k].s, xf[k], q, out);
+    }
+}
+
 /// [`plan_stream`] with the grid from `gen`.
 fn plan_with(
     gen: &mut GridGen<'_, '_>,
@@ -380,26 +417,10 @@ fn plan_with(
         stats.max_window_points = stats.max_window_points.max(pts.len());
         stats.windows += 1;
         // Forward pass over the committed prefix.
-        xf.clear();
-        xf.push(x0.min(bwd[0]).max(0.0));
-        out.clear();
-        for k in 0..commit {
-            let q = ivs[k].forward(xf[k], bwd[k + 1], &caps);
-            xf.push(q);
-            // (An interval is some 200 bytes: not copied unless it changes.)
-            let dilated;
-            let iv = match radius {
-                Some(_) => {
-                    dilated = Interval {
-                        x_inside: xin[k],
-                        ..ivs[k]
-                    };
-                    &dilated
-                }
-                None => &ivs[k],
-            };
-            pieces(iv, pts[k].s, xf[k], q, &mut out);
-        }
+        let dilated = radius.map(|_| xin.as_slice());
+        forward_prefix(
+            &pts, &ivs, &bwd, commit, x0, dilated, &caps, &mut xf, &mut out,
+        );
         stats.plan_time_s += clock.elapsed().as_secs_f64();
         for pc in &out {
             sink(PlanEvent::Piece(*pc));
