@@ -47,6 +47,8 @@
 #![forbid(unsafe_code)]
 
 pub mod canon;
+pub mod chain;
+pub mod dialect;
 pub mod error;
 pub mod expr;
 pub mod interp;
@@ -59,6 +61,7 @@ pub mod writer;
 pub use stream::BlockReader;
 
 pub use canon::Canon;
+pub use dialect::Dialect;
 pub use error::{ParseError, ParseErrorKind, Warning};
 pub use interp::frames::MachineModel;
 pub use ncsmooth::path::Units;

@@ -24,7 +24,7 @@
 //! pinned move ([`Move::pinned`]) that comes back changed is an error
 //! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
 
-use crate::source::{flags, LineInfo, WriteState};
+use crate::source::{flags, LineInfo, PathMode, WriteState};
 use crate::writer::{push_fixed, Frame, MotionWriter, MAX_DECIMALS};
 use crate::{Plane, Program};
 use ncsmooth::geom::ParamCurve;
@@ -45,6 +45,14 @@ pub struct RewriteOptions {
     /// one, which a program may read (`#<_line>`) and a controller's messages quote.
     /// Default none.
     pub header: Option<String>,
+    /// How smoothed motion is written. Default [`Emit::Native`].
+    pub emit: Emit,
+    /// LinuxCNC blending to allow on the replaced motion (`G64 P Q` before each replaced
+    /// run); `None` writes no path control mode. Default `None`.
+    pub blend: Option<Blend>,
+    /// Planes in which arcs may be written as `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2
+    /// G19); arcs in other planes are flattened. Default all.
+    pub arc_planes: u8,
 }
 
 impl Default for RewriteOptions {
@@ -53,8 +61,47 @@ impl Default for RewriteOptions {
             decimals: 4,
             chord_mm: 0.001,
             header: None,
+            emit: Emit::Native,
+            blend: None,
+            arc_planes: 0b111,
         }
     }
+}
+
+/// How smoothed motion is written.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Emit {
+    /// Move by move: lines as `G1`, arcs in a G-code plane as `G2`/`G3`, every other curve
+    /// flattened on its own within the chord.
+    Native,
+    /// Each run of feed moves at one feed (lines, arcs and curves alike) as the longest
+    /// `G1` blocks whose chord, rounding included, stays within the chord tolerance
+    /// ([`crate::chain`]); moves with extra axes (E, A..W) are written move by move.
+    Lines {
+        /// A last block of a run shorter than `min_block_mm`, or than the run's feed
+        /// times `min_block_s`, is merged or balanced with the one before when the
+        /// tolerance allows.
+        min_block_mm: f64,
+        /// See `min_block_mm` (seconds of feed).
+        min_block_s: f64,
+    },
+}
+
+/// LinuxCNC blending allowed on the written motion: `G64 P<p> Q<q>` is written before
+/// each replaced run, so the controller's blending (`P`) and naive-CAM merging (`Q`) add
+/// at most `p + q` to the deviation of the written path.
+///
+/// After the run the program's own mode is restored when it is at least as tight (`G61`,
+/// `G61.1`, or a `G64` whose `P + Q` is within `p + q`); a looser mode (LinuxCNC's
+/// start-up `G64` without `P`, or a larger `P`) is not restored, so the blending of the
+/// moves that follow stays bounded until the program sets a mode of its own.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blend {
+    /// Blend tolerance `P` (mm), positive.
+    pub p_mm: f64,
+    /// Naive-CAM tolerance `Q` (mm), positive.
+    pub q_mm: f64,
 }
 
 impl RewriteOptions {
@@ -63,8 +110,27 @@ impl RewriteOptions {
         RewriteOptions {
             decimals,
             chord_mm,
-            header: None,
+            ..Default::default()
         }
+    }
+
+    /// The same options with another emitter.
+    pub fn with_emit(self, emit: Emit) -> RewriteOptions {
+        RewriteOptions { emit, ..self }
+    }
+
+    /// The same options for `dialect`: its arc planes and, when it blends, `blend`.
+    pub fn for_dialect(self, dialect: crate::Dialect, blend: Option<Blend>) -> RewriteOptions {
+        RewriteOptions {
+            arc_planes: dialect.arc_planes(),
+            blend: if dialect.blends() { blend } else { None },
+            ..self
+        }
+    }
+
+    /// The same options with LinuxCNC blending bounds.
+    pub fn with_blend(self, blend: Option<Blend>) -> RewriteOptions {
+        RewriteOptions { blend, ..self }
     }
 
     /// The same options with header lines.
@@ -266,18 +332,14 @@ pub fn rewrite(
             let r = region.get_or_insert_with(|| {
                 Region::open(&mut s, eol, info, first_move(i), extra_mask, opts)
             });
-            for m in w {
-                r.w.write_move(m, &mut r.buf)
-                    .map_err(|_| RewriteError::BadLine { line: m.line })?;
-                if let Some((axis, _)) = r.w.violation {
-                    return Err(RewriteError::UnknownAxis { line: m.line, axis });
-                }
+            r.pending.extend_from_slice(w);
+            if r.w.frame.chain.is_none() {
+                r.flush(&mut s)?;
             }
-            s.extend_from_slice(r.buf.replace('\n', eol).as_bytes());
-            r.buf.clear();
             r.end_state = info.state;
         } else {
-            if let Some(r) = region.take() {
+            if let Some(mut r) = region.take() {
+                r.flush(&mut s)?;
                 pending_motion = r.close(&mut s, eol);
             }
             match pending_motion {
@@ -302,7 +364,8 @@ pub fn rewrite(
             }
         }
     }
-    if let Some(r) = region.take() {
+    if let Some(mut r) = region.take() {
+        r.flush(&mut s)?;
         r.close(&mut s, eol);
     }
     if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
@@ -313,16 +376,87 @@ pub fn rewrite(
 }
 
 /// A run of replaced lines being written.
-struct Region {
+struct Region<'a> {
     w: MotionWriter,
     buf: String,
+    /// Moves not yet written.
+    pending: Vec<&'a Move>,
     /// Source state before the run and after its last line.
     start_state: WriteState,
     end_state: WriteState,
     eol: &'static str,
+    /// The `G64` written at the start of the run, if any.
+    blend: Option<Blend>,
 }
 
-impl Region {
+/// `G64 P Q` (or `G61` when `P` would print as 0, which LinuxCNC reads as no bound) for
+/// `blend` in a program in `units`, each value rounded down to `decimals`.
+fn blend_text(blend: Blend, units: Units, decimals: usize) -> String {
+    let scale = unit_mm(units);
+    let p10 = 10f64.powi(decimals as i32);
+    let down = |v: f64| (v / scale * p10).floor() / p10;
+    let (p, q) = (down(blend.p_mm), down(blend.q_mm));
+    if p.is_nan() || p <= 0.0 {
+        return "G61".to_string();
+    }
+    let mut t = String::from("G64 P");
+    push_fixed(&mut t, p, decimals);
+    if q > 0.0 {
+        t.push_str(" Q");
+        push_fixed(&mut t, q, decimals);
+    } else {
+        // Q0 turns the naive-CAM merging off (Q would otherwise default to P).
+        t.push_str(" Q0");
+    }
+    t
+}
+
+/// The text that sets path mode `mode` in a program in `units`, if it can be written.
+fn path_mode_text(mode: PathMode, units: Units) -> Option<String> {
+    let scale = unit_mm(units);
+    match mode {
+        PathMode::Unset => None,
+        PathMode::ExactPath => Some("G61".into()),
+        PathMode::ExactStop => Some("G61.1".into()),
+        PathMode::Blend { p_mm, q_mm } => {
+            let mut t = String::from("G64");
+            for (l, v) in [(" P", p_mm), (" Q", q_mm)] {
+                if v.is_finite() {
+                    t.push_str(l);
+                    push_fixed(&mut t, v / scale, MAX_DECIMALS);
+                }
+            }
+            Some(t)
+        }
+    }
+}
+
+fn unit_mm(units: Units) -> f64 {
+    match units {
+        Units::Millimetres => 1.0,
+        Units::Inches => 25.4,
+    }
+}
+
+impl<'a> Region<'a> {
+    /// Writes the pending moves.
+    fn flush(&mut self, s: &mut Vec<u8>) -> Result<(), RewriteError> {
+        let Some(first) = self.pending.first() else {
+            return Ok(());
+        };
+        let line = first.line;
+        self.w
+            .write_moves(&self.pending, &mut self.buf)
+            .map_err(|_| RewriteError::BadLine { line })?;
+        if let Some((axis, _)) = self.w.violation {
+            return Err(RewriteError::UnknownAxis { line, axis });
+        }
+        self.pending.clear();
+        s.extend_from_slice(self.buf.replace('\n', self.eol).as_bytes());
+        self.buf.clear();
+        Ok(())
+    }
+
     fn open(
         s: &mut Vec<u8>,
         eol: &'static str,
@@ -330,7 +464,7 @@ impl Region {
         first: Option<&Move>,
         extra_mask: u8,
         opts: &RewriteOptions,
-    ) -> Region {
+    ) -> Region<'a> {
         let st = info.before;
         let scale = match st.units {
             Units::Millimetres => 1.0,
@@ -346,6 +480,14 @@ impl Region {
             diameter: st.diameter,
             plane: plane_code(st.plane),
             extra_mask: 0,
+            chain: match opts.emit {
+                Emit::Native => None,
+                Emit::Lines {
+                    min_block_mm,
+                    min_block_s,
+                } => Some((min_block_mm, min_block_s)),
+            },
+            arc_planes: opts.arc_planes,
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);
@@ -363,18 +505,26 @@ impl Region {
             s.extend_from_slice(b"G90");
             s.extend_from_slice(eol.as_bytes());
         }
+        if let Some(b) = opts.blend {
+            let d = decimals_for(st.units, opts.decimals);
+            s.extend_from_slice(blend_text(b, st.units, d).as_bytes());
+            s.extend_from_slice(eol.as_bytes());
+        }
         Region {
             w,
             buf: String::with_capacity(256),
+            pending: Vec::new(),
             start_state: st,
             end_state: st,
             eol,
+            blend: opts.blend,
         }
     }
 
     /// Writes what the next verbatim line expects; returns the motion code a following
     /// modal-motion line must be given, if the last one written differs.
     fn close(self, s: &mut Vec<u8>, eol: &str) -> Option<u16> {
+        debug_assert!(self.pending.is_empty());
         let st = self.end_state;
         let mut restore = String::new();
         if !st.absolute {
@@ -401,6 +551,17 @@ impl Region {
                 }
                 restore.push('F');
                 restore.push_str(&want);
+            }
+        }
+        if let Some(b) = self.blend {
+            // The program's own mode comes back only when it is at least as tight.
+            if st.path.blend_bound_mm() <= b.p_mm + b.q_mm {
+                if let Some(t) = path_mode_text(st.path, st.units) {
+                    if !restore.is_empty() {
+                        restore.push(' ');
+                    }
+                    restore.push_str(&t);
+                }
             }
         }
         if !restore.is_empty() {

@@ -26,6 +26,48 @@ pub struct WriteState {
     pub feed_word: f64,
     /// Bit `i` set when axis `i` of X Y Z A B C U V W is known in the work frame.
     pub known: u16,
+    /// Path control mode in force (G61, G61.1, G64 P Q).
+    pub path: PathMode,
+}
+
+/// LinuxCNC's path control mode: how the controller may blend between blocks.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum PathMode {
+    /// Nothing programmed: the controller's start-up mode (LinuxCNC's is `G64` without
+    /// `P`, which blends without a bound on the deviation).
+    #[default]
+    Unset,
+    /// `G61`: exact path, no blending.
+    ExactPath,
+    /// `G61.1`: exact stop at the end of every block.
+    ExactStop,
+    /// `G64` with its `P` (blend tolerance) and `Q` (naive-CAM tolerance) in millimetres,
+    /// NaN when not given (LinuxCNC then takes `Q = P`; without `P` blending is unbounded).
+    Blend {
+        /// `P` in mm, NaN when absent.
+        p_mm: f64,
+        /// `Q` in mm, NaN when absent.
+        q_mm: f64,
+    },
+}
+
+impl PathMode {
+    /// Largest deviation (mm) the controller's blending and naive-CAM merging may add to
+    /// the written path in this mode (`P + Q`, `Q` defaulting to `P`); infinite when
+    /// unbounded (start-up mode or `G64` without `P`).
+    pub fn blend_bound_mm(self) -> f64 {
+        match self {
+            PathMode::ExactPath | PathMode::ExactStop => 0.0,
+            PathMode::Unset => f64::INFINITY,
+            PathMode::Blend { p_mm, q_mm } => {
+                if p_mm.is_nan() {
+                    return f64::INFINITY;
+                }
+                let q = if q_mm.is_nan() { p_mm } else { q_mm };
+                p_mm.max(0.0) + q.max(0.0)
+            }
+        }
+    }
 }
 
 impl Default for WriteState {
@@ -40,6 +82,7 @@ impl Default for WriteState {
             motion10: 0,
             feed_word: f64::NAN,
             known: 0,
+            path: PathMode::Unset,
         }
     }
 }

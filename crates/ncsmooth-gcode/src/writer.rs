@@ -233,6 +233,11 @@ pub(crate) struct Frame {
     pub plane: u8,
     /// Extra axes in use (bit per [`EXTRA_AXIS_NAMES`]).
     pub extra_mask: u8,
+    /// `Some((min_block_mm, min_block_s))`: runs of feed moves are written as long G1
+    /// blocks ([`crate::chain`]); `None`: move by move.
+    pub chain: Option<(f64, f64)>,
+    /// Planes for `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2 G19).
+    pub arc_planes: u8,
 }
 
 impl Default for Frame {
@@ -247,6 +252,8 @@ impl Default for Frame {
             diameter: false,
             plane: 17,
             extra_mask: 0,
+            chain: None,
+            arc_planes: 0b111,
         }
     }
 }
@@ -277,6 +284,9 @@ pub(crate) struct MotionWriter {
 }
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
+
+/// Flattening chord (mm) used when a frame's chord is not positive.
+const DEFAULT_CHORD_MM: f64 = 0.001;
 
 /// Smallest chord (mm) of an arc of less than half a turn written as G2/G3; shorter arcs
 /// are flattened (into one or a few G1 lines within the chord tolerance: their sagitta is
@@ -550,6 +560,113 @@ impl MotionWriter {
         self.end(out)
     }
 
+    /// Where `p` (mm) will be read back from: each writable axis rounded to the written
+    /// decimals (the others are not written).
+    fn rounded(&self, p: Vec3) -> Vec3 {
+        let p10 = 10f64.powi(self.decimals() as i32);
+        let mut q = p;
+        for i in 0..3 {
+            if self.allowed(i) {
+                let u = (self.mm_to_units(i, coord(p, i)) * p10).round() / p10;
+                set_coord(&mut q, i, self.units_to_mm(i, u));
+            }
+        }
+        q
+    }
+
+    /// Whether `m` may join a chain of long G1 blocks: a feed move without extra axes
+    /// (their values are distributed along each programmed move) outside diameter mode.
+    fn chainable(&self, m: &Move) -> bool {
+        m.kind == MoveKind::Feed && m.extra.is_none() && !self.frame.diameter
+    }
+
+    /// Writes consecutive moves: with [`Frame::chain_min_block_mm`], each run of
+    /// chainable moves at one feed as long G1 blocks ([`crate::chain`]), the rest move by
+    /// move.
+    pub(crate) fn write_moves<W: fmt::Write>(
+        &mut self,
+        moves: &[&Move],
+        out: &mut W,
+    ) -> fmt::Result {
+        let Some((min_mm, min_s)) = self.frame.chain else {
+            return moves.iter().try_for_each(|m| self.write_move(m, out));
+        };
+        let mut k = 0;
+        while k < moves.len() {
+            let m = moves[k];
+            let mut e = k + 1;
+            if self.chainable(m) {
+                while e < moves.len()
+                    && self.chainable(moves[e])
+                    && moves[e].feed_mm_s == m.feed_mm_s
+                {
+                    e += 1;
+                }
+            }
+            if e - k == 1
+                && !matches!(m.segment, Segment::Line(_) | Segment::Arc(_))
+                && self.chainable(m)
+                || e - k > 1
+            {
+                let min_block = min_mm.max(m.feed_mm_s.unwrap_or(0.0) * min_s);
+                self.write_chain(&moves[k..e], min_block, out)?;
+            } else {
+                self.write_move(m, out)?;
+            }
+            k = e;
+        }
+        Ok(())
+    }
+
+    /// Writes a run of chainable moves as long G1 blocks within the chord tolerance.
+    fn write_chain<W: fmt::Write>(
+        &mut self,
+        moves: &[&Move],
+        min_block_mm: f64,
+        out: &mut W,
+    ) -> fmt::Result {
+        let chord = self.chord();
+        let dense_tol = chord * crate::chain::DENSE_SHARE;
+        let mut dense = std::mem::take(&mut self.points);
+        dense.clear();
+        dense.push(moves[0].segment.start());
+        let mut push = |p: Vec3| {
+            if dense.last() != Some(&p) {
+                dense.push(p);
+            }
+        };
+        for m in moves {
+            match &m.segment {
+                Segment::Line(l) => push(l.p1),
+                s => s.flatten(dense_tol, &mut push),
+            }
+        }
+        let hard = crate::chain::sharp_points(&dense);
+        let mut pts = Vec::with_capacity(dense.len() / 4 + 2);
+        crate::chain::simplify(
+            &dense,
+            &hard,
+            chord - dense_tol,
+            min_block_mm,
+            |p| self.rounded(p),
+            &mut pts,
+        );
+        self.points = dense;
+        for p in pts {
+            self.linear(moves[0], p, None, out)?;
+        }
+        Ok(())
+    }
+
+    /// The flattening chord (mm).
+    fn chord(&self) -> f64 {
+        if self.frame.chord_mm > 0.0 {
+            self.frame.chord_mm
+        } else {
+            DEFAULT_CHORD_MM
+        }
+    }
+
     /// Writes one move (lines and native arcs as such, everything else flattened).
     pub(crate) fn write_move<W: fmt::Write>(&mut self, m: &Move, out: &mut W) -> fmt::Result {
         match &m.segment {
@@ -589,6 +706,9 @@ impl MotionWriter {
         } else {
             return Ok(false);
         };
+        if self.frame.arc_planes & (1 << (plane - 17)) == 0 {
+            return Ok(false);
+        }
         let unit = 0.1f64.powi(self.decimals() as i32) * self.frame.scale;
         let min_radius = (2.0 * unit).max(MIN_ARC_RADIUS_MM);
         if a.radius.is_nan() || a.radius < min_radius || !a.sweep.is_finite() || a.sweep <= 0.0 {
@@ -688,11 +808,7 @@ impl MotionWriter {
         pts.clear();
         let start = m.segment.start();
         pts.push(start);
-        let chord = if self.frame.chord_mm > 0.0 {
-            self.frame.chord_mm
-        } else {
-            0.001
-        };
+        let chord = self.chord();
         m.segment.flatten(chord, &mut |p| pts.push(p));
         // Extra axes: interpolate from the previous values by cumulative chord length.
         let total: f64 = pts.windows(2).map(|w| w[0].dist(w[1])).sum();

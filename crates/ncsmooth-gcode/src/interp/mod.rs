@@ -604,6 +604,7 @@ impl<'a> Interp<'a> {
             motion10: self.m.motion,
             feed_word: self.m.feed_word.unwrap_or(f64::NAN),
             known: self.f.known,
+            path: self.m.path,
         }
     }
 

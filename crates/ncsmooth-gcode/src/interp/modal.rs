@@ -66,6 +66,8 @@ pub(crate) struct Modal {
     /// Returned value of the last subroutine (`#<_value>`), and whether there was one.
     pub value: f64,
     pub value_returned: bool,
+    /// Path control mode (G61, G61.1, G64 P Q).
+    pub path: crate::source::PathMode,
 }
 
 impl Default for Modal {
@@ -93,6 +95,7 @@ impl Default for Modal {
             last_g5: None,
             value: 0.0,
             value_returned: false,
+            path: crate::source::PathMode::Unset,
         }
     }
 }
@@ -564,13 +567,27 @@ impl Interp<'_> {
             return;
         };
         let mut text = code_name('G', c.code10);
+        self.m.path = match c.code10 {
+            610 => crate::source::PathMode::ExactPath,
+            611 => crate::source::PathMode::ExactStop,
+            _ => crate::source::PathMode::Blend {
+                p_mm: f64::NAN,
+                q_mm: f64::NAN,
+            },
+        };
         if c.code10 == 640 {
             let scale = self.scale();
-            for l in [b'P', b'Q'] {
+            let mut pq = [f64::NAN; 2];
+            for (k, l) in [b'P', b'Q'].into_iter().enumerate() {
                 if let Some(v) = self.val(l) {
                     push_word(&mut text, l, v * scale);
+                    pq[k] = v * scale;
                 }
             }
+            self.m.path = crate::source::PathMode::Blend {
+                p_mm: pq[0],
+                q_mm: pq[1],
+            };
         }
         self.event(EventKind::Other, text);
     }

@@ -1,0 +1,279 @@
+//! Long G1 blocks from a chain of moves: the `lines` emitter's flattening.
+//!
+//! Flattening each smoothed move on its own (the `native` emitter) ends a block at every
+//! move boundary, which leaves blocks a few micrometres long where a short transition
+//! meets a line, and rounding the ends of such a block to the written decimals turns it
+//! in an arbitrary direction. Controllers pay for both: LinuxCNC caps a block's speed at
+//! its length over 1.02 servo periods, grbl's look-ahead covers only its last 15 blocks,
+//! and every rounding kink is a junction to slow down for.
+//!
+//! [`simplify`] instead walks the whole chain (consecutive feed moves at one feed, lines
+//! and curves alike) as one dense polyline and cuts it greedily into the longest blocks
+//! whose chord stays within the tolerance:
+//!
+//! 1. the chain is flattened finely (within [`DENSE_SHARE`] of the chord tolerance), every
+//!    move end being a dense point;
+//! 2. from the last written point `a`, the block is extended to dense point `j` while every
+//!    dense point between them lies within `chord - dense` of the segment from `a` to the
+//!    *rounded* `j` (the point as it will be printed), with projections in order along it;
+//! 3. points where the dense polyline turns by more than [`BREAK_TURN_DEG`] (a sharp
+//!    corner the smoothing left) are always written, so corners are never cut;
+//! 4. a last block shorter than `min_block_mm` is merged into the one before when that
+//!    stays within tolerance, or the two share their span at its middle dense point.
+//!
+//! What it bounds: every point of the dense polyline (hence of the curve, within the dense
+//! accuracy) lies within `chord` of the written polyline and every written point within
+//! `chord` of the curve, rounding included; the proof is the convexity of the distance to
+//! a segment (dense chords between two points within `t` of a segment stay within `t`)
+//! and the ordered projections (each written segment is covered by the dense chords whose
+//! projections bracket it).
+
+use ncsmooth::geom::Vec3;
+
+/// Accuracy of the dense flattening, as a share of the chord tolerance; the rest of the
+/// chord is what merging may use.
+pub const DENSE_SHARE: f64 = 0.25;
+
+/// A dense point where the polyline turns by more than this (degrees) is always written.
+pub const BREAK_TURN_DEG: f64 = 20.0;
+
+/// Most dense points one written block may span (bounds the quadratic cost of the
+/// greedy test on long straight runs).
+pub const MAX_SPAN_POINTS: usize = 512;
+
+/// Distance from `p` to the segment `a`-`b`, and the parameter of its foot (unclamped).
+fn seg_dist(p: Vec3, a: Vec3, b: Vec3) -> (f64, f64) {
+    let d = b - a;
+    let l2 = d.norm_sq();
+    if l2 <= 0.0 {
+        return (p.dist(a), 0.0);
+    }
+    let t = (p - a).dot(d) / l2;
+    (p.dist(a + d * t.clamp(0.0, 1.0)), t)
+}
+
+/// Whether the dense points strictly between `from` and `to` lie within `tol` of the
+/// segment `a`-`b`, with projections in order and inside it.
+fn fits(dense: &[Vec3], from: usize, to: usize, a: Vec3, b: Vec3, tol: f64) -> bool {
+    let mut last_t = 0.0;
+    for &p in &dense[from + 1..to] {
+        let (d, t) = seg_dist(p, a, b);
+        if d > tol || t < last_t || t > 1.0 {
+            return false;
+        }
+        last_t = t;
+    }
+    true
+}
+
+/// Sharp turns of the dense polyline: `hard[k]` when the polyline turns at `k` by more
+/// than [`BREAK_TURN_DEG`]. The first and last points are always hard.
+pub fn sharp_points(dense: &[Vec3]) -> Vec<bool> {
+    let cos_break = BREAK_TURN_DEG.to_radians().cos();
+    let n = dense.len();
+    let mut hard = vec![false; n];
+    if n > 0 {
+        hard[0] = true;
+        hard[n - 1] = true;
+    }
+    for k in 1..n.saturating_sub(1) {
+        let u = dense[k] - dense[k - 1];
+        let v = dense[k + 1] - dense[k];
+        let (lu, lv) = (u.norm(), v.norm());
+        if lu > 0.0 && lv > 0.0 && u.dot(v) < cos_break * lu * lv {
+            hard[k] = true;
+        }
+    }
+    hard
+}
+
+/// Cuts `dense` (starting at the already written point `dense[0]`) into the longest
+/// blocks within `tol_mm`, see the module doc. `round` maps a point to where it will be
+/// printed. Pushes the written points after the start (the last one is `round` of the
+/// last dense point) to `out`.
+pub fn simplify(
+    dense: &[Vec3],
+    hard: &[bool],
+    tol_mm: f64,
+    min_block_mm: f64,
+    round: impl Fn(Vec3) -> Vec3,
+    out: &mut Vec<Vec3>,
+) {
+    let n = dense.len();
+    if n < 2 {
+        return;
+    }
+    let first_out = out.len();
+    // Dense index of each written point (index 0 is the start).
+    let mut idx = vec![0usize];
+    let mut a = 0usize;
+    let mut pa = round(dense[0]);
+    while a + 1 < n {
+        let mut best = a + 1;
+        let mut j = a + 2;
+        while j < n && j - a <= MAX_SPAN_POINTS && !hard[j - 1] {
+            if fits(dense, a, j, pa, round(dense[j]), tol_mm) {
+                best = j;
+            } else if j - best > 4 {
+                // Far past the last fit: a later fit would need the curve to come back.
+                break;
+            }
+            j += 1;
+        }
+        pa = round(dense[best]);
+        out.push(pa);
+        idx.push(best);
+        a = best;
+    }
+    balance_tail(dense, &idx, tol_mm, min_block_mm, &round, out, first_out);
+}
+
+/// Step 4 of the module doc: a short last block is merged into the one before or the two
+/// share their span.
+fn balance_tail(
+    dense: &[Vec3],
+    idx: &[usize],
+    tol_mm: f64,
+    min_block_mm: f64,
+    round: &impl Fn(Vec3) -> Vec3,
+    out: &mut Vec<Vec3>,
+    first_out: usize,
+) {
+    let k = out.len();
+    if k < first_out + 2 || idx.len() < 3 {
+        return;
+    }
+    let (last, prev) = (out[k - 1], out[k - 2]);
+    if last.dist(prev) >= min_block_mm {
+        return;
+    }
+    let (i0, i1, i2) = (idx[idx.len() - 3], idx[idx.len() - 2], idx[idx.len() - 1]);
+    let p0 = if k >= first_out + 3 {
+        out[k - 3]
+    } else {
+        round(dense[i0])
+    };
+    if i2 - i0 <= MAX_SPAN_POINTS && fits(dense, i0, i2, p0, last, tol_mm) {
+        out.remove(k - 2);
+        return;
+    }
+    let mid = (i0 + i2) / 2;
+    if mid == i1 || mid == i0 || mid == i2 {
+        return;
+    }
+    let pm = round(dense[mid]);
+    if fits(dense, i0, mid, p0, pm, tol_mm) && fits(dense, mid, i2, pm, last, tol_mm) {
+        out[k - 2] = pm;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn dist_to_polyline(p: Vec3, pl: &[Vec3]) -> f64 {
+        pl.windows(2)
+            .map(|w| seg_dist(p, w[0], w[1]).0)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Largest distance of the points of `a` (sampled along each segment) from `b`.
+    fn one_sided(a: &[Vec3], b: &[Vec3]) -> f64 {
+        let mut m: f64 = 0.0;
+        for w in a.windows(2) {
+            for s in 0..=16 {
+                let p = w[0] + (w[1] - w[0]) * (s as f64 / 16.0);
+                m = m.max(dist_to_polyline(p, b));
+            }
+        }
+        m
+    }
+
+    fn arc_points(r: f64, sweep: f64, n: usize) -> Vec<Vec3> {
+        (0..=n)
+            .map(|k| {
+                let t = sweep * k as f64 / n as f64;
+                Vec3::new(r * t.cos(), r * t.sin(), 0.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_fine_arc_becomes_long_blocks_within_the_tolerance() {
+        // Radius 10 mm, flattened at 1e-5 mm: chords of 0.028 mm. Within 1e-3 mm a
+        // chord may be sqrt(8 r t) = 0.28 mm long.
+        let dense = arc_points(10.0, 1.0, 360);
+        let hard = sharp_points(&dense);
+        let mut out = Vec::new();
+        simplify(&dense, &hard, 1e-3, 0.0, |p| p, &mut out);
+        assert!(out.len() < 60, "{} blocks", out.len());
+        assert_eq!(*out.last().unwrap(), *dense.last().unwrap());
+        let mut written = vec![dense[0]];
+        written.extend_from_slice(&out);
+        assert!(one_sided(&dense, &written) <= 1e-3 + 1e-12);
+        assert!(one_sided(&written, &dense) <= 1e-3 + 1e-12);
+    }
+
+    #[test]
+    fn sharp_corners_are_kept() {
+        let dense = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1e-4, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ];
+        let hard = sharp_points(&dense);
+        assert!(hard[1] && !hard[2]);
+        let mut out = Vec::new();
+        simplify(&dense, &hard, 1e-3, 0.0, |p| p, &mut out);
+        assert!(out.contains(&dense[1]), "{out:?}");
+    }
+
+    #[test]
+    fn a_short_tail_is_merged() {
+        // A straight run whose last piece is 1 um: merged into the block before.
+        let dense = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.000_001, 0.0, 0.0),
+        ];
+        let hard = vec![true, false, true];
+        let mut out = Vec::new();
+        simplify(&dense, &hard, 1e-3, 0.05, |p| p, &mut out);
+        assert_eq!(out, vec![dense[2]]);
+    }
+
+    proptest! {
+        /// Two-sided: the written polyline (rounded to a grid) is within the tolerance of
+        /// the dense one, both ways, and the end point is the last dense point, rounded.
+        #[test]
+        fn written_within_tolerance_both_ways(
+            r in 0.2f64..50.0,
+            sweep in 0.1f64..6.0,
+            n in 8usize..400,
+            tol in 1e-4f64..0.05,
+            wiggle in 0.0f64..1.0,
+            decimals in 3i32..7,
+        ) {
+            let unit = 10f64.powi(-decimals);
+            prop_assume!(unit < tol / 4.0);
+            let mut dense = arc_points(r, sweep, n);
+            for (k, p) in dense.iter_mut().enumerate() {
+                p.z = wiggle * tol * 0.2 * ((k as f64) * 0.7).sin();
+            }
+            let round = |p: Vec3| {
+                Vec3::new((p.x / unit).round() * unit, (p.y / unit).round() * unit,
+                    (p.z / unit).round() * unit)
+            };
+            let hard = sharp_points(&dense);
+            let mut out = Vec::new();
+            simplify(&dense, &hard, tol, 0.1, round, &mut out);
+            prop_assert_eq!(*out.last().unwrap(), round(*dense.last().unwrap()));
+            let mut written = vec![round(dense[0])];
+            written.extend_from_slice(&out);
+            prop_assert!(one_sided(&dense, &written) <= tol * (1.0 + 1e-9));
+            prop_assert!(one_sided(&written, &dense) <= tol * (1.0 + 1e-9));
+        }
+    }
+}
