@@ -171,9 +171,10 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
             method: m,
             ..Default::default()
         },
-        job.tol,
-        None,
-        DECIMALS,
+        crate::cmd_smooth::WriteSettings {
+            decimals: DECIMALS,
+            ..crate::cmd_smooth::WriteSettings::new(job.tol)
+        },
     )?;
     let gfile = format!("{}_{name}.ngc", job.stem);
     let mut gout = OutputFile::create(&job.out.join(&gfile))?;

@@ -20,8 +20,10 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
+use ncsmooth::stats::PathStats;
 use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
-use ncsmooth_gcode::RewriteOptions;
+use ncsmooth_gcode::rewrite::{Blend, Emit};
+use ncsmooth_gcode::{Dialect, RewriteOptions};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -31,6 +33,11 @@ use std::time::Instant;
 pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
 /// Accuracy of the verification, as a share of the tolerance.
 pub const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
+/// `FILTER_PROGRESS` (percent) once the program is parsed: parsing is about a fifth of a
+/// run, smoothing, writing and verifying the rest.
+const FILTER_PROGRESS_PARSED: u32 = 20;
+/// `FILTER_PROGRESS` once the written program is verified, before it goes out.
+const FILTER_PROGRESS_VERIFIED: u32 = 95;
 /// Smallest curve tolerance, as a share of `--tol`, that smoothing is asked to build to.
 const MIN_CURVE_TOL_SHARE: f64 = 0.25;
 /// Largest `--decimals`.
@@ -106,6 +113,86 @@ pub struct SmoothArgs {
     /// Largest distance (mm) of a loop from its corner; required with `--corner loop`.
     #[arg(long, required_if_eq("corner", "loop"))]
     pub loop_size: Option<f64>,
+    /// Controller the G-code is for: `linuxcnc` gets a `G64 P Q` that bounds its own
+    /// blending (paid from --tol) and blocks long enough to reach feed in a servo cycle;
+    /// `grbl`, `grblhal`, `marlin`, `klipper` get blocks of at least 4 steps (Marlin and
+    /// Klipper arcs only in G17); `generic` gets neither.
+    #[arg(long, value_enum, default_value = "linuxcnc")]
+    pub dialect: DialectArg,
+    /// How smoothed motion is written: `lines` cuts each run of feed moves into the
+    /// longest G1 blocks within --chord (rounding included); `native` writes move by move
+    /// (arcs as G2/G3, other curves flattened each on its own; always used with
+    /// `--corner loop`).
+    #[arg(long, value_enum, default_value = "lines")]
+    pub emit: EmitArg,
+}
+
+/// Dialect names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DialectArg {
+    /// LinuxCNC (RS274/NGC).
+    Linuxcnc,
+    /// grbl 1.1.
+    Grbl,
+    /// grblHAL.
+    Grblhal,
+    /// Marlin.
+    Marlin,
+    /// Klipper.
+    Klipper,
+    /// Any controller that runs the written path exactly.
+    Generic,
+}
+
+impl From<DialectArg> for Dialect {
+    fn from(d: DialectArg) -> Dialect {
+        match d {
+            DialectArg::Linuxcnc => Dialect::LinuxCnc,
+            DialectArg::Grbl => Dialect::Grbl,
+            DialectArg::Grblhal => Dialect::GrblHal,
+            DialectArg::Marlin => Dialect::Marlin,
+            DialectArg::Klipper => Dialect::Klipper,
+            DialectArg::Generic => Dialect::Generic,
+        }
+    }
+}
+
+/// Emitter names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EmitArg {
+    /// Long G1 blocks within the chord.
+    Lines,
+    /// Move by move.
+    Native,
+}
+
+/// How the smoothed program is written.
+#[derive(Clone, Copy, Debug)]
+pub struct WriteSettings {
+    /// Two-sided tolerance (mm).
+    pub tol: f64,
+    /// Flattening chord (mm), default `tol / 10`.
+    pub chord: Option<f64>,
+    /// Coordinate decimals.
+    pub decimals: usize,
+    /// Target controller.
+    pub dialect: Dialect,
+    /// Emitter.
+    pub emit: EmitArg,
+}
+
+impl WriteSettings {
+    /// Defaults for `tol`: LinuxCNC, long lines, 4 decimals, chord `tol / 10`.
+    pub fn new(tol: f64) -> WriteSettings {
+        WriteSettings {
+            tol,
+            chord: None,
+            decimals: 4,
+            dialect: Dialect::LinuxCnc,
+            emit: EmitArg::Lines,
+        }
+    }
 }
 
 impl SmoothArgs {
@@ -159,6 +246,16 @@ pub struct SmoothRunReport {
     pub chord_mm: f64,
     /// Largest move of a point by the printed decimals (mm).
     pub rounding_mm: f64,
+    /// Controller dialect written for.
+    pub dialect: &'static str,
+    /// Emitter.
+    pub emit: EmitArg,
+    /// LinuxCNC: the `G64 P Q` written before each smoothed run (mm); the controller's
+    /// blending adds at most `p + q` to the measured deviation, and the sum stays within
+    /// the tolerance.
+    pub blend: Option<BlendReport>,
+    /// Blocks, bytes and block lengths in and out.
+    pub blocks: BlockReport,
     /// What the method did.
     pub smoothing: SmoothReport,
     /// Measured two-sided deviation of the written G-code, read back, from the program
@@ -178,6 +275,93 @@ pub struct SmoothRunReport {
     pub timings: Timings,
 }
 
+/// LinuxCNC blending bounds written.
+#[derive(Serialize, Debug, Clone, Copy)]
+pub struct BlendReport {
+    /// `G64 P` (mm).
+    pub p_mm: f64,
+    /// `G64 Q` (mm).
+    pub q_mm: f64,
+    /// Measured deviation of the written path plus `p + q` (mm): the bound on the path
+    /// LinuxCNC executes.
+    pub executed_bound_mm: f64,
+}
+
+/// What the written program looks like beside the input (ArcWelder's summary, with our
+/// measured deviation).
+#[derive(Serialize, Debug, Clone, Default)]
+pub struct BlockReport {
+    /// Motion blocks (moves) of the program as read.
+    pub blocks_in: usize,
+    /// Motion blocks of the written program, read back.
+    pub blocks_out: usize,
+    /// Bytes of the program.
+    pub bytes_in: usize,
+    /// Bytes written.
+    pub bytes_out: usize,
+    /// `blocks_in / blocks_out`.
+    pub compression: f64,
+    /// Shortest feed block written (mm).
+    pub min_block_mm: f64,
+    /// Median feed block written (mm).
+    pub median_block_mm: f64,
+    /// Junctions between written feed blocks turning by more than 1 degree.
+    pub turns_over_1_deg: usize,
+    /// ... by more than 5 degrees.
+    pub turns_over_5_deg: usize,
+    /// Lines longer than the dialect reads (the first one's number), if any.
+    pub long_lines: usize,
+    /// First line longer than the dialect reads (1-based), 0 when none.
+    pub first_long_line: usize,
+}
+
+impl BlockReport {
+    fn of(
+        input: &[u8],
+        tp_in: &ncsmooth::Toolpath,
+        out: &[u8],
+        tp_out: &ncsmooth::Toolpath,
+        dialect: Dialect,
+    ) -> BlockReport {
+        let (a, b) = (PathStats::of(tp_in), PathStats::of(tp_out));
+        let blocks = |s: &PathStats| s.rapids + s.feed_lines + s.feed_arcs + s.feed_curves;
+        let over = |s: &PathStats, deg: f64| -> usize {
+            s.corner_angles
+                .iter()
+                .filter(|bin| bin.from_deg >= deg)
+                .map(|bin| bin.count)
+                .sum()
+        };
+        let (mut long_lines, mut first_long_line) = (0, 0);
+        if let Some(max) = dialect.max_line_len() {
+            for (i, l) in out.split(|&c| c == b'\n').enumerate() {
+                let l = l.strip_suffix(b"\r").unwrap_or(l);
+                if l.len() > max {
+                    long_lines += 1;
+                    if first_long_line == 0 {
+                        first_long_line = i + 1;
+                    }
+                }
+            }
+        }
+        let (bi, bo) = (blocks(&a), blocks(&b));
+        let _ = a;
+        BlockReport {
+            blocks_in: bi,
+            blocks_out: bo,
+            bytes_in: input.len(),
+            bytes_out: out.len(),
+            compression: if bo > 0 { bi as f64 / bo as f64 } else { 0.0 },
+            min_block_mm: b.feed_segment_length_mm.min,
+            median_block_mm: b.feed_segment_length_mm.median,
+            turns_over_1_deg: over(&b, 1.0),
+            turns_over_5_deg: over(&b, 5.0),
+            long_lines,
+            first_long_line,
+        }
+    }
+}
+
 /// Result of [`smooth_program`]: the written text and the report.
 pub struct SmoothOutcome {
     /// G-code text (the program's bytes where they are copied).
@@ -194,10 +378,15 @@ pub fn smooth_program(
     src: &[u8],
     program: &ncsmooth_gcode::Program,
     base: SmoothOptions,
-    tol: f64,
-    chord: Option<f64>,
-    decimals: usize,
+    ws: WriteSettings,
 ) -> Result<SmoothOutcome> {
+    let WriteSettings {
+        tol,
+        chord,
+        decimals,
+        dialect,
+        ..
+    } = ws;
     let method = base.method;
     let chord = chord.unwrap_or(tol * DEFAULT_CHORD_SHARE);
     if !(tol > 0.0 && tol.is_finite()) {
@@ -217,12 +406,22 @@ pub fn smooth_program(
         .fold(ncsmooth_gcode::writer::rounding_mm(decimals), f64::max);
     // `none` builds no curves, but rounding still moves its points and off-plane arcs are
     // still flattened: the same budget applies.
-    let curve_tol = tol - chord - rounding;
+    // LinuxCNC blends between the written blocks: `G64 P<chord> Q0` keeps its blend
+    // arcs no tighter than the chords themselves (a blend at a chord junction turning by
+    // `theta` has radius about `8 P / theta^2`, the curve `8 chord / theta^2`) and is paid
+    // from the tolerance.
+    let blend = dialect.blends().then_some(Blend {
+        p_mm: chord,
+        q_mm: 0.0,
+    });
+    let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
+    let curve_tol = tol - chord - rounding - blend_mm;
     // A tolerance eaten by the flattening chord and the printed decimals is an input
     // error, not something to fail on later.
     if curve_tol <= tol * MIN_CURVE_TOL_SHARE || curve_tol.is_nan() {
         return Err(io::BadInput(format!(
-            "--tol {tol:?} mm leaves too little room: the flattening chord takes {chord:?} mm \
+            "--tol {tol:?} mm leaves too little room: the flattening chord takes {chord:?} mm, \
+             the controller's blending {blend_mm:?} mm \
              and {decimals} decimals round coordinates by up to {rounding:.3e} mm; \
              use a larger --tol, a smaller --chord or more --decimals"
         ))
@@ -256,11 +455,23 @@ pub fn smooth_program(
     let smoothed = smooth(&program.toolpath, &opts).map_err(|e| io::BadInput(e.to_string()))?;
     t.smooth_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
-    let wopts = RewriteOptions::new(decimals.min(MAX_DECIMALS), chord).with_header(format!(
-        "ncsmooth {} --method {} --tol {tol} (from {name})",
-        env!("CARGO_PKG_VERSION"),
-        method.name()
-    ));
+    let loop_mode = loop_size.is_some();
+    let emit = if loop_mode { EmitArg::Native } else { ws.emit };
+    let wopts = RewriteOptions::new(decimals.min(MAX_DECIMALS), chord)
+        .with_header(format!(
+            "ncsmooth {} --method {} --tol {tol} --dialect {} (from {name})",
+            env!("CARGO_PKG_VERSION"),
+            method.name(),
+            dialect.name()
+        ))
+        .for_dialect(dialect, blend)
+        .with_emit(match emit {
+            EmitArg::Native => Emit::Native,
+            EmitArg::Lines => Emit::Lines {
+                min_block_mm: dialect.min_block_mm(0.0),
+                min_block_s: dialect.min_block_s(),
+            },
+        });
     let write = |tp: &ncsmooth::Toolpath| {
         ncsmooth_gcode::rewrite(src, program, tp, &wopts)
             .map_err(|e| anyhow::anyhow!("writing the smoothed program: {e}"))
@@ -278,12 +489,14 @@ pub fn smooth_program(
             .map(|p| p.toolpath)
             .map_err(|e| anyhow::anyhow!("the written G-code does not read back: {e}"))
     };
-    let written = if loop_size.is_some() {
+    let as_written = read_back(&gcode)?;
+    let written = if loop_mode {
         read_back(&write(&without_loops(&smoothed.toolpath))?)?
     } else {
-        read_back(&gcode)?
+        as_written.clone()
     };
     let dev = deviation(&written, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
+    let blocks = BlockReport::of(src, &program.toolpath, &gcode, &as_written, dialect);
     let loops_ok = match (loops, loop_size) {
         (Some(l), Some(size)) => l.within(size),
         _ => true,
@@ -297,8 +510,16 @@ pub fn smooth_program(
         curve_tol_mm: curve_tol,
         chord_mm: chord,
         rounding_mm: rounding,
+        dialect: dialect.name(),
+        emit,
+        blend: blend.map(|b| BlendReport {
+            p_mm: b.p_mm,
+            q_mm: b.q_mm,
+            executed_bound_mm: dev.output_to_programmed_mm.max(dev.vertex_to_output_mm) + blend_mm,
+        }),
+        blocks,
         smoothing: smoothed.report.clone(),
-        within_tol: dev.within(tol) && loops_ok,
+        within_tol: dev.within(tol - blend_mm) && loops_ok,
         deviation: dev,
         loops,
         continuity: cont,
@@ -338,21 +559,30 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         outputs.push(("--report", r.as_path()));
     }
     io::check_outputs(Some(&a.file), &outputs)?;
+    // As a LinuxCNC filter (`[FILTER] PROGRAM_EXTENSION`, program on stdout) the progress
+    // goes to stderr as `FILTER_PROGRESS=N` lines, which LinuxCNC shows as a bar.
+    let filter = a.output.as_os_str() == "-" && a.dialect == DialectArg::Linuxcnc;
+    let progress = |percent: u32| {
+        if filter {
+            eprintln!("FILTER_PROGRESS={percent}");
+        }
+    };
+    progress(0);
     let t0 = Instant::now();
     let loaded = load(&a.file)?;
+    progress(FILTER_PROGRESS_PARSED);
     let program = &loaded.program;
     let parse_s = t0.elapsed().as_secs_f64();
     let name = io::display_name(&a.file);
     let base = a.options()?;
-    let mut out = smooth_program(
-        name,
-        &loaded.src,
-        program,
-        base,
-        a.tol,
-        a.chord,
-        usize::from(a.decimals),
-    )?;
+    let ws = WriteSettings {
+        tol: a.tol,
+        chord: a.chord,
+        decimals: usize::from(a.decimals),
+        dialect: a.dialect.into(),
+        emit: a.emit,
+    };
+    let mut out = smooth_program(name, &loaded.src, program, base, ws)?;
     out.report.timings.parse_s = parse_s;
     let r = &out.report;
     if let (Some(l), Some(size)) = (&r.loops, a.loop_size) {
@@ -366,8 +596,9 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         }
     }
     if !r.within_tol {
+        let blend = r.blend.map_or(0.0, |b| b.p_mm + b.q_mm);
         bail!(
-            "verification failed: deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) exceeds tol {:?} mm; nothing written",
+            "verification failed: deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) plus {blend:?} mm of controller blending exceeds tol {:?} mm; nothing written",
             r.deviation.output_to_programmed_mm,
             r.deviation.output_line,
             r.deviation.vertex_to_output_mm,
@@ -375,12 +606,42 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
             a.tol
         );
     }
+    progress(FILTER_PROGRESS_VERIFIED);
     let json = serde_json::to_string_pretty(r)?;
     write_outputs(&[
         (Some(&a.output), &out.gcode[..]),
         (a.report.as_ref(), json.as_bytes()),
     ])?;
     let s = &r.smoothing;
+    let b = &r.blocks;
+    if b.long_lines > 0 {
+        ui.status(format!(
+            "warning: {} lines are longer than {} reads (first: line {})",
+            b.long_lines,
+            a.dialect
+                .to_possible_value()
+                .map(|v| v.get_name().to_string())
+                .unwrap_or_default(),
+            b.first_long_line
+        ));
+    }
+    ui.status(format!(
+        "{name}: blocks {} -> {} ({:.2}x), bytes {} -> {}, block min {:.4} / median {:.4} mm, turns > 1 deg {}, > 5 deg {}{}",
+        b.blocks_in,
+        b.blocks_out,
+        b.compression,
+        b.bytes_in,
+        b.bytes_out,
+        b.min_block_mm,
+        b.median_block_mm,
+        b.turns_over_1_deg,
+        b.turns_over_5_deg,
+        r.blend.map_or(String::new(), |bl| format!(
+            "; LinuxCNC G64 P{} Q{}, executed path within {:.6} mm",
+            bl.p_mm, bl.q_mm, bl.executed_bound_mm
+        ))
+    ));
+    progress(100);
     ui.status(format!(
         "{name}: {} corners smoothed, {} straight, {} stopped; deviation {:.6} / {:.6} mm (tol {:?} mm); G2 joints {}, G1 {}, G0 {}; {:.3} s",
         s.corners_smoothed,

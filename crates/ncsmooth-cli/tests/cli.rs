@@ -1234,3 +1234,62 @@ fn refused_constructs_name_themselves() {
         assert!(!out.exists(), "{body}: output written");
     }
 }
+
+/// The dialect decides the bound on the controller's blending (LinuxCNC's `G64 P Q`, paid
+/// from the tolerance) and the emitter the block lengths: long lines are fewer and longer
+/// than the move-by-move flattening, and both read back within the tolerance.
+#[test]
+fn smooth_writes_for_its_dialect_and_emitter() {
+    let d = tmpdir("dialect");
+    // A 400-segment circle of radius 10 mm, then a sharp corner.
+    let mut src = String::from("G21 G90\nG0 X10 Y0\nG1 F1200\n");
+    for k in 1..400 {
+        let a = std::f64::consts::TAU * k as f64 / 400.0;
+        src += &format!("X{:.4} Y{:.4}\n", 10.0 * a.cos(), 10.0 * a.sin());
+    }
+    src += "X20 Y0\nX20 Y10\nM2\n";
+    let f = write(&d, "circle.ngc", src.as_bytes());
+    let out = d.join("out.ngc");
+    let rep = d.join("r.json");
+    let smooth = |extra: &[&str]| -> (String, serde_json::Value) {
+        let mut args = vec![
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            "bspline",
+            "--tol",
+            "0.01",
+            "-o",
+            out.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+        (std::fs::read_to_string(&out).unwrap(), r)
+    };
+    let (text, r) = smooth(&[]);
+    assert_eq!(r["dialect"], "linuxcnc");
+    assert!(text.contains("G64 P0.001 Q0\n"), "{text}");
+    let bound = r["blend"]["executed_bound_mm"].as_f64().unwrap();
+    assert!(bound <= 0.01 && bound > 0.001, "{bound}");
+    let lines = &r["blocks"];
+    // 399 arc segments and 2 lines (the G0 from an unknown position is not a move).
+    assert_eq!(lines["blocks_in"], 401);
+    // Within 1e-3 mm on a 10 mm radius a block may be about 0.2 mm long: more than the
+    // 0.157 mm segments of the program, so fewer blocks than moves.
+    assert!(lines["blocks_out"].as_u64().unwrap() < 401, "{lines}");
+    assert!(lines["median_block_mm"].as_f64().unwrap() > 0.15, "{lines}");
+    let (text, r) = smooth(&["--dialect", "grbl", "--emit", "native"]);
+    assert!(!text.contains("G64"), "{text}");
+    assert!(r["blend"].is_null());
+    let native = &r["blocks"];
+    assert!(
+        native["blocks_out"].as_u64().unwrap() > lines["blocks_out"].as_u64().unwrap(),
+        "{native} {lines}"
+    );
+    assert_eq!(r["within_tol"], true);
+    let _ = std::fs::remove_dir_all(&d);
+}
