@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Cycle time of smoothed G-code on the controllers' own planners (dev script, not CI).
 
-    scripts/controller_table.py [--tol 0.01] [--feed 50] [--acc 500] [--no-linuxcnc]
+    [NCSMOOTH_BIN=...] scripts/controller_table.py [--tol 0.01] [--feed 50] [--acc 500] [--no-linuxcnc]
                                 [--methods bspline,arc,nurbs,trig] [--emit lines,native]
                                 [FILE ...]
 
@@ -32,11 +32,11 @@ TOOLS = os.path.join(SHARED, "tools")
 DEFAULT_FILES = [
     "data/profiles/butterfly_1000.ngc",
     "data/profiles/crown.ngc",
-    "data/gcode/camotics_tiny_cat_outline.ngc",
+    "data/gcode/linuxcnc_rgh.ngc",
     "data/gcode/camotics_vcarve.ngc",
     "data/gcode/cncjs_jsdc.gcode",
 ]
-BIN = os.path.join(ROOT, "target", "release", "ncsmooth")
+BIN = os.environ.get("NCSMOOTH_BIN", os.path.join(ROOT, "target", "release", "ncsmooth"))
 
 
 def last_json(out):

@@ -7,13 +7,15 @@
 //! copied verbatim, in the program's units.
 //!
 //! The written file honours `--tol`: curves that G-code cannot carry are built to
-//! `tol - chord - rounding` and then flattened into G1 lines within `chord` (default
+//! `tol - chord - rounding - blend` and then flattened into G1 lines within `chord` (default
 //! `tol / 10`); `rounding` is the most a point moves when its coordinates are printed with
 //! `--decimals` digits (one more in inch programs,
 //! [`ncsmooth_gcode::rewrite::rounding_mm_for`]). What is measured is the written text
 //! itself, read back by the parser, against the program, with
 //! [`ncsmooth::verify::deviation`], before any file is written; a violation is an internal
-//! error (exit 1) and no file is written.
+//! error (exit 1) and no file is written. `blend` is `P + Q` of the `G64` written for
+//! LinuxCNC (`--dialect linuxcnc`, [`ncsmooth_gcode::Dialect`]): the controller's own
+//! blending, added to the measured deviation, stays within `--tol`.
 
 use crate::{io, load, Ui};
 use anyhow::{bail, Context, Result};
@@ -240,7 +242,8 @@ pub struct SmoothRunReport {
     pub input: String,
     /// Tolerance asked for (mm).
     pub tol_mm: f64,
-    /// Tolerance the curves were built to (mm): `tol - chord - rounding`.
+    /// Tolerance the curves were built to (mm): `tol - chord - rounding`, less `P + Q` of
+    /// the `G64` written for LinuxCNC.
     pub curve_tol_mm: f64,
     /// Flattening chord error (mm).
     pub chord_mm: f64,

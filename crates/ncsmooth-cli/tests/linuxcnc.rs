@@ -86,11 +86,41 @@ fn smooth(input: &Path, method: &str, out: &Path) -> Result<(), String> {
         ])
         .output()
         .map_err(|e| e.to_string())?;
-    if o.status.success() {
-        Ok(())
-    } else {
-        Err(String::from_utf8_lossy(&o.stderr).into_owned())
+    if !o.status.success() {
+        return Err(String::from_utf8_lossy(&o.stderr).into_owned());
     }
+    without_blend_bounds(input, out)
+}
+
+/// Whether `line` is a path control mode line as the LinuxCNC dialect writes them around
+/// smoothed runs (`G64 P<p> Q<q>`, `G61`, `G61.1`, or a restored `G64 ...`).
+fn is_path_mode_line(line: &str) -> bool {
+    let numbers = |t: &str| {
+        t.split(' ').all(|w| {
+            let mut c = w.chars();
+            matches!(c.next(), Some('P' | 'Q')) && c.all(|c| c.is_ascii_digit() || c == '.')
+        })
+    };
+    line == "G61"
+        || line == "G61.1"
+        || line == "G64"
+        || line.strip_prefix("G64 ").is_some_and(numbers)
+}
+
+/// Removes from `out` the path control lines the LinuxCNC dialect added (lines of that
+/// form that are not in the input): they change how LinuxCNC blends, which rs274's
+/// canonical calls list as events (`SET_MOTION_CONTROL_MODE`), not what the program means;
+/// the blending bound itself is tested in ncsmooth-gcode's rewrite tests and measured with
+/// LinuxCNC's planner by scripts/controller_table.py.
+fn without_blend_bounds(input: &Path, out: &Path) -> Result<(), String> {
+    let src = std::fs::read_to_string(input).unwrap_or_default();
+    let own: std::collections::HashSet<&str> = src.lines().map(str::trim_end).collect();
+    let text = std::fs::read_to_string(out).map_err(|e| e.to_string())?;
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !is_path_mode_line(l) || own.contains(l))
+        .collect();
+    std::fs::write(out, kept.join("\n") + "\n").map_err(|e| e.to_string())
 }
 
 /// Times canon_check is run on a pair when rs274 died of a signal (it sometimes dies of a

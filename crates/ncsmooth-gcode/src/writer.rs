@@ -285,6 +285,11 @@ pub(crate) struct MotionWriter {
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
+/// Under the long-lines emitter, an arc whose flattening within the chord takes at least
+/// this many lines is written as `G2`/`G3` (where its plane allows) and ends the chain of
+/// lines; shorter arcs (the small transitions of a smoothed corner) join the chain.
+pub const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
+
 /// Flattening chord (mm) used when a frame's chord is not positive.
 const DEFAULT_CHORD_MM: f64 = 0.001;
 
@@ -577,7 +582,24 @@ impl MotionWriter {
     /// Whether `m` may join a chain of long G1 blocks: a feed move without extra axes
     /// (their values are distributed along each programmed move) outside diameter mode.
     fn chainable(&self, m: &Move) -> bool {
-        m.kind == MoveKind::Feed && m.extra.is_none() && !self.frame.diameter
+        m.kind == MoveKind::Feed
+            && m.extra.is_none()
+            && !self.frame.diameter
+            && !self.long_arc(&m.segment)
+    }
+
+    /// An arc that one `G2`/`G3` carries better than the lines of a chain: flattened it
+    /// would take at least [`NATIVE_ARC_MIN_BLOCKS`] chords.
+    fn long_arc(&self, s: &Segment) -> bool {
+        let Segment::Arc(a) = s else {
+            return false;
+        };
+        let c = self.chord();
+        if a.radius.is_nan() || a.radius <= c {
+            return false;
+        }
+        let per_chord = 2.0 * (1.0 - c / a.radius).acos();
+        a.sweep >= NATIVE_ARC_MIN_BLOCKS * per_chord
     }
 
     /// Writes consecutive moves: with [`Frame::chain_min_block_mm`], each run of
