@@ -33,6 +33,12 @@ use std::time::Instant;
 
 /// Share of the tolerance used as the default flattening chord error.
 pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
+/// Share of the tolerance LinuxCNC's blending may use (`G64 P`).
+pub const BLEND_SHARE: f64 = 0.1;
+/// Share of the tolerance used as the chord when `--method none --emit ...` compresses the
+/// program's own lines (nothing else is built: the chord takes what blending and rounding
+/// leave, with some room).
+pub const COMPRESS_CHORD_SHARE: f64 = 0.8;
 /// Accuracy of the verification, as a share of the tolerance.
 pub const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
 /// `FILTER_PROGRESS` (percent) once the program is parsed: parsing is about a fifth of a
@@ -121,12 +127,14 @@ pub struct SmoothArgs {
     /// Klipper arcs only in G17); `generic` gets neither.
     #[arg(long, value_enum, default_value = "linuxcnc")]
     pub dialect: DialectArg,
-    /// How smoothed motion is written: `lines` cuts each run of feed moves into the
-    /// longest G1 blocks within --chord (rounding included); `native` writes move by move
-    /// (arcs as G2/G3, other curves flattened each on its own; always used with
-    /// `--corner loop`).
-    #[arg(long, value_enum, default_value = "lines")]
-    pub emit: EmitArg,
+    /// How smoothed motion is written: `lines` (the default) cuts each run of feed moves
+    /// into the longest G1 blocks within --chord (rounding included); `arcs` also fits XY
+    /// arcs (G2/G3) where they reach farther; `native` writes move by move (arcs as
+    /// G2/G3, other curves flattened each on its own; always used with `--corner loop`).
+    /// With `--method none`, giving `--emit` compresses the program's own G1 runs within
+    /// --chord (default 0.8 tol there) instead of copying them.
+    #[arg(long, value_enum)]
+    pub emit: Option<EmitArg>,
 }
 
 /// Dialect names.
@@ -165,6 +173,8 @@ impl From<DialectArg> for Dialect {
 pub enum EmitArg {
     /// Long G1 blocks within the chord.
     Lines,
+    /// Long G1 blocks and XY arcs within the chord.
+    Arcs,
     /// Move by move.
     Native,
 }
@@ -180,8 +190,8 @@ pub struct WriteSettings {
     pub decimals: usize,
     /// Target controller.
     pub dialect: Dialect,
-    /// Emitter.
-    pub emit: EmitArg,
+    /// Emitter; `None` is `lines`, and with `--method none` a verbatim copy.
+    pub emit: Option<EmitArg>,
 }
 
 impl WriteSettings {
@@ -192,7 +202,7 @@ impl WriteSettings {
             chord: None,
             decimals: 4,
             dialect: Dialect::LinuxCnc,
-            emit: EmitArg::Lines,
+            emit: None,
         }
     }
 }
@@ -391,7 +401,14 @@ pub fn smooth_program(
         ..
     } = ws;
     let method = base.method;
-    let chord = chord.unwrap_or(tol * DEFAULT_CHORD_SHARE);
+    // `none` with an emitter re-writes the program's own lines within the chord: no
+    // curves are built, so the chord may take what blending and rounding leave.
+    let compress = method == Method::None && ws.emit.is_some();
+    let chord = chord.unwrap_or(if compress {
+        tol * COMPRESS_CHORD_SHARE
+    } else {
+        tol * DEFAULT_CHORD_SHARE
+    });
     if !(tol > 0.0 && tol.is_finite()) {
         return Err(
             io::BadInput(format!("--tol must be a positive length in mm, got {tol}")).into(),
@@ -409,19 +426,22 @@ pub fn smooth_program(
         .fold(ncsmooth_gcode::writer::rounding_mm(decimals), f64::max);
     // `none` builds no curves, but rounding still moves its points and off-plane arcs are
     // still flattened: the same budget applies.
-    // LinuxCNC blends between the written blocks: `G64 P<chord> Q0` keeps its blend
-    // arcs no tighter than the chords themselves (a blend at a chord junction turning by
-    // `theta` has radius about `8 P / theta^2`, the curve `8 chord / theta^2`) and is paid
-    // from the tolerance.
+    // LinuxCNC blends between the written blocks: `G64 P<tol/10> Q0` keeps its blend
+    // arcs no tighter than the default chords themselves (a blend at a chord junction
+    // turning by `theta` has radius about `8 P / theta^2`, the curve `8 chord / theta^2`)
+    // and is paid from the tolerance.
     let blend = dialect.blends().then_some(Blend {
-        p_mm: chord,
+        p_mm: tol * BLEND_SHARE,
         q_mm: 0.0,
     });
     let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
     let curve_tol = tol - chord - rounding - blend_mm;
     // A tolerance eaten by the flattening chord and the printed decimals is an input
     // error, not something to fail on later.
-    if curve_tol <= tol * MIN_CURVE_TOL_SHARE || curve_tol.is_nan() {
+    if (curve_tol <= tol * MIN_CURVE_TOL_SHARE && !compress)
+        || curve_tol.is_nan()
+        || curve_tol < 0.0
+    {
         return Err(io::BadInput(format!(
             "--tol {tol:?} mm leaves too little room: the flattening chord takes {chord:?} mm, \
              the controller's blending {blend_mm:?} mm \
@@ -459,7 +479,11 @@ pub fn smooth_program(
     t.smooth_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let loop_mode = loop_size.is_some();
-    let emit = if loop_mode { EmitArg::Native } else { ws.emit };
+    let emit = match (loop_mode, ws.emit, method) {
+        (true, _, _) | (false, None, Method::None) => EmitArg::Native,
+        (false, None, _) => EmitArg::Lines,
+        (false, Some(e), _) => e,
+    };
     let wopts = RewriteOptions::new(decimals.min(MAX_DECIMALS), chord)
         .with_header(format!(
             "ncsmooth {} --method {} --tol {tol} --dialect {} (from {name})",
@@ -470,11 +494,13 @@ pub fn smooth_program(
         .for_dialect(dialect, blend)
         .with_emit(match emit {
             EmitArg::Native => Emit::Native,
+            EmitArg::Arcs => Emit::Arcs,
             EmitArg::Lines => Emit::Lines {
                 min_block_mm: dialect.min_block_mm(0.0),
                 min_block_s: dialect.min_block_s(),
             },
-        });
+        })
+        .with_rewrite_unchanged(compress);
     let write = |tp: &ncsmooth::Toolpath| {
         ncsmooth_gcode::rewrite(src, program, tp, &wopts)
             .map_err(|e| anyhow::anyhow!("writing the smoothed program: {e}"))

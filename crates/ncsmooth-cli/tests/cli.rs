@@ -1291,5 +1291,37 @@ fn smooth_writes_for_its_dialect_and_emitter() {
         "{native} {lines}"
     );
     assert_eq!(r["within_tol"], true);
+    // `none` with an emitter compresses the program's own lines: the 399-segment circle
+    // becomes a few arcs (ArcWelder's idea, within the two-sided tolerance).
+    let smooth_none = |emit: &str| -> (String, serde_json::Value) {
+        let o = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            "none",
+            "--emit",
+            emit,
+            "--tol",
+            "0.01",
+            "-o",
+            out.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+        (std::fs::read_to_string(&out).unwrap(), r)
+    };
+    let (text, r) = smooth_none("arcs");
+    assert!(text.contains("G3 "), "{text}");
+    assert!(
+        r["blocks"]["blocks_out"].as_u64().unwrap() < 20,
+        "{}",
+        r["blocks"]
+    );
+    assert_eq!(r["within_tol"], true);
+    let (_, r) = smooth_none("lines");
+    let n = r["blocks"]["blocks_out"].as_u64().unwrap();
+    assert!(n > 20 && n < 401, "{}", r["blocks"]);
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -109,23 +109,215 @@ pub fn simplify(
     let mut a = 0usize;
     let mut pa = round(dense[0]);
     while a + 1 < n {
-        let mut best = a + 1;
-        let mut j = a + 2;
-        while j < n && j - a <= MAX_SPAN_POINTS && !hard[j - 1] {
-            if fits(dense, a, j, pa, round(dense[j]), tol_mm) {
-                best = j;
-            } else if j - best > 4 {
-                // Far past the last fit: a later fit would need the curve to come back.
-                break;
-            }
-            j += 1;
-        }
+        let best = longest_line(dense, hard, a, pa, tol_mm, &round);
         pa = round(dense[best]);
         out.push(pa);
         idx.push(best);
         a = best;
     }
     balance_tail(dense, &idx, tol_mm, min_block_mm, &round, out, first_out);
+}
+
+/// Dense points tried past the last one that fitted before a search gives up: a later
+/// fit would need the curve to come back.
+const SEARCH_PAST_FIT: usize = 4;
+
+/// The farthest dense index a line from the written point `pa` (dense index `a`) reaches
+/// within `tol_mm` (at least `a + 1`).
+fn longest_line(
+    dense: &[Vec3],
+    hard: &[bool],
+    a: usize,
+    pa: Vec3,
+    tol_mm: f64,
+    round: &impl Fn(Vec3) -> Vec3,
+) -> usize {
+    let n = dense.len();
+    let mut best = a + 1;
+    let mut j = a + 2;
+    while j < n && j - a <= MAX_SPAN_POINTS && !hard[j - 1] {
+        if fits(dense, a, j, pa, round(dense[j]), tol_mm) {
+            best = j;
+        } else if j - best > SEARCH_PAST_FIT {
+            break;
+        }
+        j += 1;
+    }
+    best
+}
+
+/// Fewest dense steps an arc spans: shorter spans are lines.
+pub const MIN_ARC_SPAN: usize = 3;
+
+/// Largest radius (mm) fitted as an arc; flatter runs are lines.
+pub const MAX_ARC_RADIUS_MM: f64 = 1e4;
+
+/// A piece of the written path from [`fit_arcs`]: a line or an arc in the XY plane (its Z
+/// linear in the swept angle, a helix), ending at the rounded dense point `to`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Piece {
+    /// A line to `end`.
+    Line {
+        /// Dense index of the end.
+        to: usize,
+        /// End point (rounded).
+        end: Vec3,
+    },
+    /// An arc about `center` (Z of its start) to `end`.
+    Arc {
+        /// Dense index of the start.
+        from: usize,
+        /// Dense index of the end.
+        to: usize,
+        /// End point (rounded).
+        end: Vec3,
+        /// Centre.
+        center: Vec3,
+        /// Counter-clockwise seen from +Z.
+        ccw: bool,
+    },
+}
+
+/// Centre (z = 0) of the circle through three points projected on XY; `None` when they
+/// are collinear there.
+fn circle_xy(a: Vec3, b: Vec3, c: Vec3) -> Option<Vec3> {
+    let (bx, by) = (b.x - a.x, b.y - a.y);
+    let (cx, cy) = (c.x - a.x, c.y - a.y);
+    let d = 2.0 * (bx * cy - by * cx);
+    if d.abs() <= f64::EPSILON * (bx.abs() + by.abs()) * (cx.abs() + cy.abs()) || d == 0.0 {
+        return None;
+    }
+    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+    let ux = (cy * b2 - by * c2) / d;
+    let uy = (bx * c2 - cx * b2) / d;
+    Some(Vec3::new(a.x + ux, a.y + uy, 0.0))
+}
+
+/// Angle (0..2 pi) swept from `u0` to `p` about `c` in the XY plane, in the sense `ccw`.
+fn swept(c: Vec3, u0: f64, p: Vec3, ccw: bool) -> f64 {
+    let a = (p.y - c.y).atan2(p.x - c.x) - u0;
+    let a = if ccw { a } else { -a };
+    a.rem_euclid(std::f64::consts::TAU)
+}
+
+/// Whether the arc from `pa` to `pe` about `c` (XY, Z linear in angle) passes within `tol`
+/// of the dense points strictly between `from` and `to`, in order.
+#[allow(clippy::too_many_arguments)]
+fn arc_fits(
+    dense: &[Vec3],
+    from: usize,
+    to: usize,
+    pa: Vec3,
+    pe: Vec3,
+    c: Vec3,
+    ccw: bool,
+    tol: f64,
+) -> bool {
+    let r = (pa.x - c.x).hypot(pa.y - c.y);
+    if (pe.x - c.x).hypot(pe.y - c.y) - r > tol * 0.25
+        || r - (pe.x - c.x).hypot(pe.y - c.y) > tol * 0.25
+    {
+        return false;
+    }
+    let u0 = (pa.y - c.y).atan2(pa.x - c.x);
+    let total = swept(c, u0, pe, ccw);
+    if total <= 0.0 {
+        return false;
+    }
+    // Between two dense points the arc bulges from their chord by at most its sagitta
+    // over the angle between them: the dense polyline is the path to stay near (with
+    // `--method none` it is the program itself).
+    let sagitta = |dth: f64| r * (1.0 - (0.5 * dth).cos());
+    let (mut last, mut last_err) = (0.0, pa.dist(dense[from]));
+    for &p in &dense[from + 1..to] {
+        let th = swept(c, u0, p, ccw);
+        if th < last || th > total {
+            return false;
+        }
+        let z = pa.z + (pe.z - pa.z) * th / total;
+        let dr = (p.x - c.x).hypot(p.y - c.y) - r;
+        let err = dr.hypot(p.z - z);
+        if err > tol || err.max(last_err) + sagitta(th - last) > tol {
+            return false;
+        }
+        (last, last_err) = (th, err);
+    }
+    last_err.max(pe.dist(dense[to])) + sagitta(total - last) <= tol
+}
+
+/// The longest arc from the written point `pa` (dense index `a`) within `tol_mm`: its end
+/// index, centre and sense, if one spans at least [`MIN_ARC_SPAN`] dense steps.
+fn longest_arc(
+    dense: &[Vec3],
+    hard: &[bool],
+    a: usize,
+    pa: Vec3,
+    tol_mm: f64,
+    round: &impl Fn(Vec3) -> Vec3,
+) -> Option<(usize, Vec3, bool)> {
+    let n = dense.len();
+    let mut best = None;
+    // The last index that fitted (the first candidate before any did).
+    let mut last_fit = a + MIN_ARC_SPAN;
+    let mut j = a + MIN_ARC_SPAN;
+    while j < n && j - a <= MAX_SPAN_POINTS && !hard[j - 1] && !hard[j - 2] {
+        let pe = round(dense[j]);
+        let mid = dense[(a + j) / 2];
+        let fit = circle_xy(pa, mid, pe).and_then(|c| {
+            let c = Vec3::new(c.x, c.y, pa.z);
+            let r = (pa.x - c.x).hypot(pa.y - c.y);
+            let turn = (mid.x - pa.x) * (pe.y - mid.y) - (mid.y - pa.y) * (pe.x - mid.x);
+            let ccw = turn > 0.0;
+            (r <= MAX_ARC_RADIUS_MM && arc_fits(dense, a, j, pa, pe, c, ccw, tol_mm))
+                .then_some((j, c, ccw))
+        });
+        if let Some(f) = fit {
+            best = Some(f);
+            last_fit = j;
+        } else if j - last_fit > SEARCH_PAST_FIT {
+            break;
+        }
+        j += 1;
+    }
+    best
+}
+
+/// Like [`simplify`], with arcs: from each written point the piece that reaches farther,
+/// the longest line or the longest XY arc (helical when Z changes), both within `tol_mm`
+/// of every dense point they span, end points rounded. ArcWelder's idea (arcs through
+/// runs of G1 points within a resolution) with the two-sided check of this module.
+pub fn fit_arcs(
+    dense: &[Vec3],
+    hard: &[bool],
+    tol_mm: f64,
+    round: impl Fn(Vec3) -> Vec3,
+    out: &mut Vec<Piece>,
+) {
+    let n = dense.len();
+    let mut a = 0usize;
+    let mut pa = round(dense.first().copied().unwrap_or_default());
+    while a + 1 < n {
+        let jl = longest_line(dense, hard, a, pa, tol_mm, &round);
+        match longest_arc(dense, hard, a, pa, tol_mm, &round) {
+            Some((ja, center, ccw)) if ja > jl => {
+                let end = round(dense[ja]);
+                out.push(Piece::Arc {
+                    from: a,
+                    to: ja,
+                    end,
+                    center,
+                    ccw,
+                });
+                a = ja;
+                pa = end;
+            }
+            _ => {
+                pa = round(dense[jl]);
+                out.push(Piece::Line { to: jl, end: pa });
+                a = jl;
+            }
+        }
+    }
 }
 
 /// Step 4 of the module doc: a short last block is merged into the one before or the two
@@ -244,6 +436,42 @@ mod tests {
         assert_eq!(out, vec![dense[2]]);
     }
 
+    #[test]
+    fn a_flattened_circle_becomes_arcs() {
+        // 360 lines of a radius-10 circle (chords 0.17 mm) within 1e-3 mm: a few arcs.
+        let dense = arc_points(10.0, 6.0, 360);
+        let hard = sharp_points(&dense);
+        let mut out = Vec::new();
+        fit_arcs(&dense, &hard, 1e-3, |p| p, &mut out);
+        let arcs = out
+            .iter()
+            .filter(|p| matches!(p, Piece::Arc { .. }))
+            .count();
+        assert!(out.len() <= 3 && arcs >= 1, "{out:?}");
+        match out.last().unwrap() {
+            Piece::Arc {
+                end, center, ccw, ..
+            } => {
+                assert_eq!(*end, *dense.last().unwrap());
+                assert!(center.norm() < 1e-6 && *ccw, "{center:?}");
+            }
+            Piece::Line { end, .. } => assert_eq!(*end, *dense.last().unwrap()),
+        }
+        // A straight run stays a line.
+        let line: Vec<Vec3> = (0..50)
+            .map(|k| Vec3::new(k as f64 * 0.1, 0.0, 0.0))
+            .collect();
+        let mut out = Vec::new();
+        fit_arcs(&line, &sharp_points(&line), 1e-3, |p| p, &mut out);
+        assert_eq!(
+            out,
+            vec![Piece::Line {
+                to: 49,
+                end: line[49]
+            }]
+        );
+    }
+
     proptest! {
         /// Two-sided: the written polyline (rounded to a grid) is within the tolerance of
         /// the dense one, both ways, and the end point is the last dense point, rounded.
@@ -274,6 +502,60 @@ mod tests {
             written.extend_from_slice(&out);
             prop_assert!(one_sided(&dense, &written) <= tol * (1.0 + 1e-9));
             prop_assert!(one_sided(&written, &dense) <= tol * (1.0 + 1e-9));
+        }
+
+        /// Arcs: every dense point within the tolerance of the written pieces (arcs
+        /// sampled finely), and every written point within it of the dense polyline.
+        #[test]
+        fn arcs_within_tolerance_both_ways(
+            r in 0.5f64..50.0,
+            sweep in 0.2f64..6.0,
+            n in 8usize..300,
+            tol in 1e-4f64..0.05,
+            wiggle in 0.0f64..1.0,
+            lift in -1.0f64..1.0,
+        ) {
+            let mut dense = arc_points(r, sweep, n);
+            for (k, p) in dense.iter_mut().enumerate() {
+                p.x += wiggle * tol * 0.3 * ((k as f64) * 1.3).sin();
+                p.z = lift * k as f64 / n as f64;
+            }
+            use ncsmooth::geom::{Arc, Line, ParamCurve, ParamCurveNearest, Segment};
+            let hard = sharp_points(&dense);
+            let mut out = Vec::new();
+            fit_arcs(&dense, &hard, tol, |p| p, &mut out);
+            let mut pieces: Vec<Segment> = Vec::new();
+            let mut start = dense[0];
+            for piece in &out {
+                let seg: Segment = match *piece {
+                    Piece::Line { end, .. } => Line::new(start, end).into(),
+                    Piece::Arc { end, center, ccw, .. } => {
+                        Arc::from_center(start, end, center, Vec3::Z, ccw, 0).unwrap().into()
+                    }
+                };
+                start = seg.eval(1.0);
+                pieces.push(seg);
+            }
+            prop_assert!(start.dist(*dense.last().unwrap()) <= 1e-9);
+            // Dense polyline (sampled) to the written pieces, exactly.
+            let to_written = |p: Vec3| pieces.iter()
+                .map(|s| s.nearest(p, 1e-12).distance_sq.sqrt())
+                .fold(f64::INFINITY, f64::min);
+            let mut worst: f64 = 0.0;
+            for w in dense.windows(2) {
+                for k in 0..=16 {
+                    worst = worst.max(to_written(w[0] + (w[1] - w[0]) * (k as f64 / 16.0)));
+                }
+            }
+            prop_assert!(worst <= tol * (1.0 + 1e-9), "{}", worst);
+            // Written pieces (sampled) to the dense polyline.
+            let mut worst: f64 = 0.0;
+            for s in &pieces {
+                for k in 0..=256 {
+                    worst = worst.max(dist_to_polyline(s.eval(k as f64 / 256.0), &dense));
+                }
+            }
+            prop_assert!(worst <= tol * (1.0 + 1e-9), "{}", worst);
         }
     }
 }

@@ -25,7 +25,7 @@
 //! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
 
 use crate::source::{flags, LineInfo, PathMode, WriteState};
-use crate::writer::{push_fixed, Frame, MotionWriter, MAX_DECIMALS};
+use crate::writer::{push_fixed, ChainMode, Frame, MotionWriter, MAX_DECIMALS};
 use crate::{Plane, Program};
 use ncsmooth::geom::ParamCurve;
 use ncsmooth::path::{Move, Toolpath, Units};
@@ -53,6 +53,10 @@ pub struct RewriteOptions {
     /// Planes in which arcs may be written as `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2
     /// G19); arcs in other planes are flattened. Default all.
     pub arc_planes: u8,
+    /// Write every replaceable line through the emitter, changed or not (compressing a
+    /// program's own G1 runs with [`Emit::Lines`] or [`Emit::Arcs`]). Default false:
+    /// unchanged lines are copied verbatim.
+    pub rewrite_unchanged: bool,
 }
 
 impl Default for RewriteOptions {
@@ -64,6 +68,7 @@ impl Default for RewriteOptions {
             emit: Emit::Native,
             blend: None,
             arc_planes: 0b111,
+            rewrite_unchanged: false,
         }
     }
 }
@@ -86,6 +91,10 @@ pub enum Emit {
         /// See `min_block_mm` (seconds of feed).
         min_block_s: f64,
     },
+    /// As [`Emit::Lines`], with arcs: from each written point the longer of the longest
+    /// line and the longest XY arc (`G2`/`G3`, helical when Z changes) within the chord
+    /// of every point and every chord it spans ([`crate::chain::fit_arcs`]).
+    Arcs,
 }
 
 /// LinuxCNC blending allowed on the written motion: `G64 P<p> Q<q>` is written before
@@ -124,6 +133,14 @@ impl RewriteOptions {
         RewriteOptions {
             arc_planes: dialect.arc_planes(),
             blend: if dialect.blends() { blend } else { None },
+            ..self
+        }
+    }
+
+    /// The same options with [`RewriteOptions::rewrite_unchanged`] set to `all`.
+    pub fn with_rewrite_unchanged(self, all: bool) -> RewriteOptions {
+        RewriteOptions {
+            rewrite_unchanged: all,
             ..self
         }
     }
@@ -310,7 +327,8 @@ pub fn rewrite(
     for (i, info) in lines.iter().enumerate() {
         let o = &orig[orig_by[i].0..orig_by[i].1];
         let w = &out[out_by[i].0..out_by[i].1];
-        changed[i] = !same_moves(o, w);
+        changed[i] = !same_moves(o, w)
+            || (opts.rewrite_unchanged && info.has(flags::REPLACEABLE) && !w.is_empty());
         if changed[i] && !info.has(flags::REPLACEABLE) {
             return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
         }
@@ -485,7 +503,16 @@ impl<'a> Region<'a> {
                 Emit::Lines {
                     min_block_mm,
                     min_block_s,
-                } => Some((min_block_mm, min_block_s)),
+                } => Some(ChainMode {
+                    min_block_mm,
+                    min_block_s,
+                    arcs: false,
+                }),
+                Emit::Arcs => Some(ChainMode {
+                    min_block_mm: 0.0,
+                    min_block_s: 0.0,
+                    arcs: true,
+                }),
             },
             arc_planes: opts.arc_planes,
         };

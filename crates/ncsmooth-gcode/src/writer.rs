@@ -212,6 +212,17 @@ fn push_comment(line: &mut String, prefix: &str, text: &str) {
     line.push(')');
 }
 
+/// How runs of feed moves are written under a long-block emitter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ChainMode {
+    /// Shortest last block to aim for (mm).
+    pub min_block_mm: f64,
+    /// ... or this many seconds of the run's feed.
+    pub min_block_s: f64,
+    /// Fit XY arcs (G2/G3) as well as lines.
+    pub arcs: bool,
+}
+
 /// How a [`MotionWriter`] writes: units, modes and which axes it may write.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Frame {
@@ -233,9 +244,9 @@ pub(crate) struct Frame {
     pub plane: u8,
     /// Extra axes in use (bit per [`EXTRA_AXIS_NAMES`]).
     pub extra_mask: u8,
-    /// `Some((min_block_mm, min_block_s))`: runs of feed moves are written as long G1
-    /// blocks ([`crate::chain`]); `None`: move by move.
-    pub chain: Option<(f64, f64)>,
+    /// `Some`: runs of feed moves are written as long blocks ([`crate::chain`]); `None`:
+    /// move by move.
+    pub chain: Option<ChainMode>,
     /// Planes for `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2 G19).
     pub arc_planes: u8,
 }
@@ -610,7 +621,7 @@ impl MotionWriter {
         moves: &[&Move],
         out: &mut W,
     ) -> fmt::Result {
-        let Some((min_mm, min_s)) = self.frame.chain else {
+        let Some(mode) = self.frame.chain else {
             return moves.iter().try_for_each(|m| self.write_move(m, out));
         };
         let mut k = 0;
@@ -630,8 +641,10 @@ impl MotionWriter {
                 && self.chainable(m)
                 || e - k > 1
             {
-                let min_block = min_mm.max(m.feed_mm_s.unwrap_or(0.0) * min_s);
-                self.write_chain(&moves[k..e], min_block, out)?;
+                let min_block = mode
+                    .min_block_mm
+                    .max(m.feed_mm_s.unwrap_or(0.0) * mode.min_block_s);
+                self.write_chain(&moves[k..e], min_block, mode.arcs, out)?;
             } else {
                 self.write_move(m, out)?;
             }
@@ -645,6 +658,7 @@ impl MotionWriter {
         &mut self,
         moves: &[&Move],
         min_block_mm: f64,
+        arcs: bool,
         out: &mut W,
     ) -> fmt::Result {
         let chord = self.chord();
@@ -664,18 +678,75 @@ impl MotionWriter {
             }
         }
         let hard = crate::chain::sharp_points(&dense);
+        // Lines are their own dense points: merging may use the whole chord.
+        let all_lines = moves.iter().all(|m| matches!(m.segment, Segment::Line(_)));
+        let tol = if all_lines { chord } else { chord - dense_tol };
+        let r = if arcs {
+            self.write_arc_pieces(moves[0], &dense, &hard, tol, out)
+        } else {
+            self.write_lines(moves[0], &dense, &hard, tol, min_block_mm, out)
+        };
+        self.points = dense;
+        r
+    }
+
+    /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]).
+    fn write_lines<W: fmt::Write>(
+        &mut self,
+        m: &Move,
+        dense: &[Vec3],
+        hard: &[bool],
+        tol: f64,
+        min_block_mm: f64,
+        out: &mut W,
+    ) -> fmt::Result {
         let mut pts = Vec::with_capacity(dense.len() / 4 + 2);
         crate::chain::simplify(
-            &dense,
-            &hard,
-            chord - dense_tol,
+            dense,
+            hard,
+            tol,
             min_block_mm,
             |p| self.rounded(p),
             &mut pts,
         );
-        self.points = dense;
-        for p in pts {
-            self.linear(moves[0], p, None, out)?;
+        pts.into_iter()
+            .try_for_each(|p| self.linear(m, p, None, out))
+    }
+
+    /// Writes `dense` as lines and XY arcs within `tol` ([`crate::chain::fit_arcs`]); an
+    /// arc the writer cannot carry as `G2`/`G3` is written as lines instead.
+    fn write_arc_pieces<W: fmt::Write>(
+        &mut self,
+        m: &Move,
+        dense: &[Vec3],
+        hard: &[bool],
+        tol: f64,
+        out: &mut W,
+    ) -> fmt::Result {
+        let mut pieces = Vec::with_capacity(dense.len() / 8 + 2);
+        crate::chain::fit_arcs(dense, hard, tol, |p| self.rounded(p), &mut pieces);
+        for piece in pieces {
+            match piece {
+                crate::chain::Piece::Line { end, .. } => self.linear(m, end, None, out)?,
+                crate::chain::Piece::Arc {
+                    from,
+                    to,
+                    end,
+                    center,
+                    ccw,
+                } => {
+                    let start = self.written_pos();
+                    let arc = Arc::from_center(start, end, center, Vec3::Z, ccw, 0);
+                    let written = match arc {
+                        Some(a) => self.try_arc(m, &a, out)?,
+                        None => false,
+                    };
+                    if !written {
+                        let span = &dense[from..=to];
+                        self.write_lines(m, span, &hard[from..=to], tol, 0.0, out)?;
+                    }
+                }
+            }
         }
         Ok(())
     }

@@ -244,7 +244,7 @@ proptest! {
     fn programs_survive_parse_rewrite_parse(
         ops in proptest::collection::vec(op(), 1..40),
         no_z in any::<bool>(),
-        lines in any::<bool>(),
+        emit in 0u8..3,
         blend in any::<bool>(),
     ) {
         let src = program(&ops, no_z);
@@ -255,8 +255,11 @@ proptest! {
             Err(_) => return Ok(()),
         };
         let mut opts = RewriteOptions::new(6, 1e-4);
-        if lines {
-            opts = opts.with_emit(Emit::Lines { min_block_mm: 0.05, min_block_s: 0.0 });
+        let lines = emit > 0;
+        match emit {
+            1 => opts = opts.with_emit(Emit::Lines { min_block_mm: 0.05, min_block_s: 0.0 }),
+            2 => opts = opts.with_emit(Emit::Arcs),
+            _ => {}
         }
         if blend {
             opts = opts.with_blend(Some(Blend { p_mm: 1e-3, q_mm: 0.0 }));
@@ -291,8 +294,8 @@ proptest! {
         );
         prop_assert_eq!(subs, subprogram_lines(&text).0);
         let dev = ncsmooth::verify::deviation(&q.toolpath, &p.toolpath, 1e-8);
-        // Long lines may cut a vertex that turns by less than the break angle by up to
-        // the chord.
+        // Long lines and arcs may cut a vertex that turns by less than the break angle by
+        // up to the chord.
         let vertex_bound = if lines { 1e-4 + 1e-5 } else { 1e-5 };
         prop_assert!(
             dev.output_to_programmed_mm <= 1e-4 + 1e-5 && dev.vertex_to_output_mm <= vertex_bound,
