@@ -129,7 +129,8 @@ pub struct SmoothArgs {
     pub dialect: DialectArg,
     /// How smoothed motion is written: `lines` (the default) cuts each run of feed moves
     /// into the longest G1 blocks within --chord (rounding included); `arcs` also fits XY
-    /// arcs (G2/G3) where they reach farther; `native` writes move by move (arcs as
+    /// arcs (G2/G3) where they reach farther; `g5` writes the B-spline method's cubic
+    /// Béziers exactly as G5 (lines where the dialect has no G5); `native` writes move by move (arcs as
     /// G2/G3, other curves flattened each on its own; always used with `--corner loop`).
     /// With `--method none`, giving `--emit` compresses the program's own G1 runs within
     /// --chord (default 0.8 tol there) instead of copying them.
@@ -175,6 +176,9 @@ pub enum EmitArg {
     Lines,
     /// Long G1 blocks and XY arcs within the chord.
     Arcs,
+    /// Long G1 blocks, and every XY cubic Bézier (the B-spline method's curves) as one
+    /// exact `G5` where the dialect reads G5 (LinuxCNC, grblHAL, Marlin).
+    G5,
     /// Move by move.
     Native,
 }
@@ -495,7 +499,11 @@ pub fn smooth_program(
         .with_emit(match emit {
             EmitArg::Native => Emit::Native,
             EmitArg::Arcs => Emit::Arcs,
-            EmitArg::Lines => Emit::Lines {
+            EmitArg::G5 if dialect.has_g5() => Emit::G5 {
+                min_block_mm: dialect.min_block_mm(0.0),
+                min_block_s: dialect.min_block_s(),
+            },
+            EmitArg::Lines | EmitArg::G5 => Emit::Lines {
                 min_block_mm: dialect.min_block_mm(0.0),
                 min_block_s: dialect.min_block_s(),
             },

@@ -1,13 +1,13 @@
 //! What each controller accepts and what the writer gives it.
 //!
-//! | dialect | blending the writer bounds | shortest block it aims for | arcs | longest line |
-//! |---|---|---|---|---|
-//! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::rewrite::Blend`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | 256 |
-//! | `grbl` | none (grbl keeps the path, junction deviation only slows) | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | 80 |
-//! | `grblhal` | none | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | 256 |
-//! | `marlin` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | 96 |
-//! | `klipper` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | none |
-//! | `generic` | none | none | G17, G18, G19 | none |
+//! | dialect | blending the writer bounds | shortest block it aims for | arcs | G5 | longest line |
+//! |---|---|---|---|---|---|
+//! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::rewrite::Blend`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | yes | 256 |
+//! | `grbl` | none (grbl keeps the path, junction deviation only slows) | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | no | 80 |
+//! | `grblhal` | none | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | yes | 256 |
+//! | `marlin` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | yes | 96 |
+//! | `klipper` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | no | none |
+//! | `generic` | none | none | G17, G18, G19 | no | none |
 //!
 //! LinuxCNC's start-up mode (`G64` without `P`) blends with no bound on the deviation
 //! (corners of the crown profile are cut by about 1.9 mm at 50 mm/s): smoothed G-code for
@@ -98,6 +98,11 @@ impl Dialect {
             Dialect::Marlin | Dialect::Klipper => 0b001,
             _ => 0b111,
         }
+    }
+
+    /// Whether the controller reads `G5` cubic Béziers (XY plane).
+    pub fn has_g5(self) -> bool {
+        matches!(self, Dialect::LinuxCnc | Dialect::GrblHal | Dialect::Marlin)
     }
 
     /// Longest line (characters) the controller reads, if it has a limit.

@@ -95,6 +95,14 @@ pub enum Emit {
     /// line and the longest XY arc (`G2`/`G3`, helical when Z changes) within the chord
     /// of every point and every chord it spans ([`crate::chain::fit_arcs`]).
     Arcs,
+    /// As [`Emit::Lines`], with every cubic Bézier in an XY plane (the B-spline method's
+    /// curves) written exactly as one `G5` (LinuxCNC, grblHAL, Marlin).
+    G5 {
+        /// See [`Emit::Lines`].
+        min_block_mm: f64,
+        /// See [`Emit::Lines`].
+        min_block_s: f64,
+    },
 }
 
 /// LinuxCNC blending allowed on the written motion: `G64 P<p> Q<q>` is written before
@@ -343,9 +351,15 @@ pub fn rewrite(
     let mut region: Option<Region> = None;
     // Motion code the next modal-motion line must be given, after a region.
     let mut pending_motion: Option<u16> = None;
+    let first_motion = first_loose_motion(lines, &changed, opts.blend);
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
+        if let (Some(b), Some(true)) = (opts.blend, first_motion.map(|f| f == i)) {
+            let d = decimals_for(info.before.units, opts.decimals);
+            s.extend_from_slice(blend_text(b, info.before.units, d).as_bytes());
+            s.extend_from_slice(eol.as_bytes());
+        }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
                 Region::open(&mut s, eol, info, first_move(i), extra_mask, opts)
@@ -391,6 +405,22 @@ pub fn rewrite(
     }
     write_header(&mut s);
     Ok(s)
+}
+
+/// The first executed motion line, when blending is bounded, the controller's mode there
+/// is looser than the bound (LinuxCNC's start-up `G64` without `P` blends without limit)
+/// and the line is not replaced (a replaced run writes its own `G64`): the verbatim
+/// motion before the first smoothed run is bounded too. `None` when nothing changed.
+fn first_loose_motion(lines: &[LineInfo], changed: &[bool], blend: Option<Blend>) -> Option<usize> {
+    let b = blend?;
+    // A program given back unchanged is copied as it is.
+    if !changed.contains(&true) {
+        return None;
+    }
+    let i = lines.iter().position(|l| {
+        l.has(flags::EXECUTED) && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION))
+    })?;
+    (!changed[i] && lines[i].before.path.blend_bound_mm() > b.p_mm + b.q_mm).then_some(i)
 }
 
 /// A run of replaced lines being written.
@@ -513,7 +543,16 @@ impl<'a> Region<'a> {
                     min_block_s: 0.0,
                     arcs: true,
                 }),
+                Emit::G5 {
+                    min_block_mm,
+                    min_block_s,
+                } => Some(ChainMode {
+                    min_block_mm,
+                    min_block_s,
+                    arcs: false,
+                }),
             },
+            g5: matches!(opts.emit, Emit::G5 { .. }),
             arc_planes: opts.arc_planes,
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();

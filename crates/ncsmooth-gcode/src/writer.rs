@@ -37,7 +37,7 @@
 //! rounded radii differ by more than its tolerance.
 
 use ncsmooth::decimal::POW10_U64;
-use ncsmooth::geom::{Arc, Flatten, ParamCurve, Segment, Vec3};
+use ncsmooth::geom::{Arc, CubicBez, Flatten, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Block, EventKind, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
 use std::fmt::{self, Write as _};
@@ -249,6 +249,8 @@ pub(crate) struct Frame {
     pub chain: Option<ChainMode>,
     /// Planes for `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2 G19).
     pub arc_planes: u8,
+    /// Cubic Béziers in the XY plane are written as `G5` (exact).
+    pub g5: bool,
 }
 
 impl Default for Frame {
@@ -265,6 +267,7 @@ impl Default for Frame {
             extra_mask: 0,
             chain: None,
             arc_planes: 0b111,
+            g5: false,
         }
     }
 }
@@ -300,6 +303,9 @@ const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 /// this many lines is written as `G2`/`G3` (where its plane allows) and ends the chain of
 /// lines; shorter arcs (the small transitions of a smoothed corner) join the chain.
 pub const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
+
+/// [`MotionWriter::last_motion`] after a `G5` (no G0-G3 mode is in force).
+pub(crate) const G5_MOTION: u8 = 5;
 
 /// Flattening chord (mm) used when a frame's chord is not positive.
 const DEFAULT_CHORD_MM: f64 = 0.001;
@@ -597,6 +603,64 @@ impl MotionWriter {
             && m.extra.is_none()
             && !self.frame.diameter
             && !self.long_arc(&m.segment)
+            && !self.g5_able(&m.segment)
+    }
+
+    /// Whether `s` is a cubic Bézier that `G5` carries: G5 is on, the curve lies in an XY
+    /// plane (Z constant) and X and Y may be written.
+    fn g5_able(&self, s: &Segment) -> bool {
+        let Segment::CubicBez(b) = s else {
+            return false;
+        };
+        self.frame.g5
+            && !self.frame.diameter
+            && self.allowed(0)
+            && self.allowed(1)
+            && [b.p1.z, b.p2.z, b.p3.z].iter().all(|&z| z == b.p0.z)
+    }
+
+    /// Writes a cubic Bézier as `G5 X Y I J P Q` (first control point relative to the
+    /// written start, second relative to the written end, both with
+    /// [`CENTRE_EXTRA_DECIMALS`] more digits, so the reader's curve is the original one
+    /// moved by the end points' rounding at most); false when it must be flattened.
+    fn try_g5<W: fmt::Write>(
+        &mut self,
+        m: &Move,
+        b: &CubicBez,
+        out: &mut W,
+    ) -> Result<bool, fmt::Error> {
+        if !self.g5_able(&Segment::CubicBez(*b)) {
+            return Ok(false);
+        }
+        let start = self.written_pos();
+        self.begin();
+        if self.frame.plane != 17 {
+            self.line.push_str("G17 ");
+            self.frame.plane = 17;
+        }
+        self.line.push_str("G5");
+        self.axis(0, b.p3.x, true);
+        self.axis(1, b.p3.y, true);
+        let end = self.written_pos();
+        let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
+        let offsets = [
+            ('I', b.p1.x - start.x),
+            ('J', b.p1.y - start.y),
+            ('P', b.p2.x - end.x),
+            ('Q', b.p2.y - end.y),
+        ];
+        for (letter, v) in offsets {
+            self.scratch.clear();
+            push_fixed(&mut self.scratch, v / self.frame.scale, decimals);
+            self.line.push(' ');
+            self.line.push(letter);
+            self.line.push_str(&self.scratch);
+        }
+        self.feed(m);
+        // G5 is a motion mode of its own: a following modal line must get its code back.
+        self.last_motion = Some(G5_MOTION);
+        self.end(out)?;
+        Ok(true)
     }
 
     /// An arc that one `G2`/`G3` carries better than the lines of a chain: flattened it
@@ -766,6 +830,12 @@ impl MotionWriter {
             Segment::Line(l) => self.linear(m, l.p1, m.extra.as_ref(), out),
             Segment::Arc(a) => {
                 if !self.try_arc(m, a, out)? {
+                    self.flattened(m, out)?;
+                }
+                Ok(())
+            }
+            Segment::CubicBez(b) if self.frame.g5 => {
+                if !self.try_g5(m, b, out)? {
                     self.flattened(m, out)?;
                 }
                 Ok(())

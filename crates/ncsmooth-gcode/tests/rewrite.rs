@@ -373,22 +373,34 @@ fn blending_is_bounded_around_smoothed_runs() {
         String::from_utf8(rewrite(src.as_bytes(), &p, &halves(&p.toolpath), &opts).unwrap())
             .unwrap()
     };
-    // Start-up mode (unbounded): ours stays in force after the run.
+    // Start-up mode (unbounded): bounded from the first motion line on (the rapid from
+    // an unknown position, written as programmed), and ours stays in force after the run.
     let t = run("G0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM2\n", 0.002);
-    assert!(t.contains("G64 P0.002 Q0\n"), "{t}");
-    assert_eq!(t.matches("G6").count(), 1, "{t}");
+    assert!(t.starts_with("G64 P0.002 Q0\nG0 X0 Y0 F100\n"), "{t}");
+    assert_eq!(t.matches("G6").count(), 2, "{t}");
+    // A program given back unchanged gets nothing.
+    let src = "G0 X0 Y0 F100\nG1 X1\nM2\n";
+    let p = parse(src).unwrap();
+    let opts = RewriteOptions::new(4, 1e-4).with_blend(Some(Blend {
+        p_mm: 0.002,
+        q_mm: 0.0,
+    }));
+    assert_eq!(
+        rewrite(src.as_bytes(), &p, &p.toolpath, &opts).unwrap(),
+        src.as_bytes()
+    );
     // An exact-path program gets its G61 back after the run.
     let t = run("G61\nG0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM0\nG1 X3\n", 0.002);
     let after = t.split("G64 P0.002 Q0").nth(1).unwrap();
     assert!(after.contains("G61"), "{t}");
-    // A looser G64 P0.1 is not restored (each run writes its own bound); a tighter
-    // G64 P0.001 is.
+    // A looser G64 P0.1 is bounded from the first motion on and not restored after a run
+    // (each run writes its own bound); a tighter G64 P0.001 is left alone and restored.
     let t = run(
         "G64 P0.1\nG0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM0\nG1 X3\n",
         0.002,
     );
     assert_eq!(t.matches("G64 P0.1").count(), 1, "{t}");
-    assert_eq!(t.matches("G64 P0.002 Q0").count(), 2, "{t}");
+    assert_eq!(t.matches("G64 P0.002 Q0").count(), 3, "{t}");
     let t = run(
         "G64 P0.001 Q0.0005\nG0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM0\n",
         0.002,
@@ -436,4 +448,45 @@ fn long_lines_join_the_pieces_of_a_run() {
         n_native > 300 && n_lines < n_native / 2,
         "{n_native} {n_lines}"
     );
+}
+
+/// `G5`: the B-spline method's corner curves (cubic Béziers) are written exactly: read
+/// back, each equals the smoothed curve at sampled parameters to 1e-9 mm (9 decimals, the
+/// control-point offsets with two more).
+#[test]
+fn g5_carries_the_bspline_corners_exactly() {
+    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+    let src = "G21 G90 G17\nG0 X0 Y0 Z1\nG1 X10 F600\nG1 X10 Y10\nG1 X0 Y12\nM2\n";
+    let p = parse(src).unwrap();
+    let opts = SmoothOptions {
+        method: Method::Bspline,
+        tol_mm: 0.05,
+        ..Default::default()
+    };
+    let smoothed = smooth(&p.toolpath, &opts).unwrap().toolpath;
+    let curves = |tp: &Toolpath| -> Vec<ncsmooth::geom::CubicBez> {
+        tp.moves()
+            .filter_map(|m| match &m.segment {
+                Segment::CubicBez(b) => Some(*b),
+                _ => None,
+            })
+            .collect()
+    };
+    let want = curves(&smoothed);
+    assert!(want.len() >= 2, "two corners: {want:?}");
+    let g5 = RewriteOptions::new(9, 1e-3).with_emit(Emit::G5 {
+        min_block_mm: 0.0,
+        min_block_s: 0.0,
+    });
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &g5).unwrap()).unwrap();
+    assert_eq!(text.matches("G5 ").count(), want.len(), "{text}");
+    let got = curves(&parse(&text).unwrap().toolpath);
+    assert_eq!(got.len(), want.len());
+    for (a, b) in want.iter().zip(&got) {
+        for k in 0..=64 {
+            let t = k as f64 / 64.0;
+            let d = a.eval(t).dist(b.eval(t));
+            assert!(d <= 1e-9, "{d:e} at t = {t}\n{text}");
+        }
+    }
 }
