@@ -136,6 +136,12 @@ pub struct SmoothArgs {
     /// --chord (default 0.8 tol there) instead of copying them.
     #[arg(long, value_enum)]
     pub emit: Option<EmitArg>,
+    /// LinuxCNC: `G64 P` (mm), the blending allowed, paid from --tol [default: tol / 10].
+    #[arg(long)]
+    pub g64_p: Option<f64>,
+    /// LinuxCNC: `G64 Q` (mm), the naive-CAM merging allowed, paid from --tol [default: 0].
+    #[arg(long)]
+    pub g64_q: Option<f64>,
 }
 
 /// Dialect names.
@@ -196,6 +202,8 @@ pub struct WriteSettings {
     pub dialect: Dialect,
     /// Emitter; `None` is `lines`, and with `--method none` a verbatim copy.
     pub emit: Option<EmitArg>,
+    /// LinuxCNC `G64 P` and `Q` (mm); `None` for the defaults (tol / 10 and 0).
+    pub g64: (Option<f64>, Option<f64>),
 }
 
 impl WriteSettings {
@@ -207,6 +215,7 @@ impl WriteSettings {
             decimals: 4,
             dialect: Dialect::LinuxCnc,
             emit: None,
+            g64: (None, None),
         }
     }
 }
@@ -435,9 +444,18 @@ pub fn smooth_program(
     // turning by `theta` has radius about `8 P / theta^2`, the curve `8 chord / theta^2`)
     // and is paid from the tolerance.
     let blend = dialect.blends().then_some(Blend {
-        p_mm: tol * BLEND_SHARE,
-        q_mm: 0.0,
+        p_mm: ws.g64.0.unwrap_or(tol * BLEND_SHARE),
+        q_mm: ws.g64.1.unwrap_or(0.0),
     });
+    if let Some(b) = blend {
+        if !(b.p_mm > 0.0 && b.p_mm < tol && b.q_mm >= 0.0 && b.q_mm < tol) {
+            return Err(io::BadInput(format!(
+                "--g64-p must be in (0, tol) and --g64-q in [0, tol), got {} and {}",
+                b.p_mm, b.q_mm
+            ))
+            .into());
+        }
+    }
     let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
     let curve_tol = tol - chord - rounding - blend_mm;
     // A tolerance eaten by the flattening chord and the printed decimals is an input
@@ -618,6 +636,7 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         decimals: usize::from(a.decimals),
         dialect: a.dialect.into(),
         emit: a.emit,
+        g64: (a.g64_p, a.g64_q),
     };
     let mut out = smooth_program(name, &loaded.src, program, base, ws)?;
     out.report.timings.parse_s = parse_s;

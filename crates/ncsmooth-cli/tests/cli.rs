@@ -1282,6 +1282,21 @@ fn smooth_writes_for_its_dialect_and_emitter() {
     // 0.157 mm segments of the program, so fewer blocks than moves.
     assert!(lines["blocks_out"].as_u64().unwrap() < 401, "{lines}");
     assert!(lines["median_block_mm"].as_f64().unwrap() > 0.15, "{lines}");
+    let (text, r) = smooth(&["--g64-p", "0.002", "--g64-q", "0.0005"]);
+    assert!(text.contains("G64 P0.002 Q0.0005\n"), "{text}");
+    let b = &r["blend"];
+    let bound = b["executed_bound_mm"].as_f64().unwrap();
+    assert!((0.0025..=0.01).contains(&bound), "{b}");
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--g64-p",
+        "0",
+        "-o",
+        d.join("never.ngc").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!d.join("never.ngc").exists());
     let (text, r) = smooth(&["--dialect", "grbl", "--emit", "native"]);
     assert!(!text.contains("G64"), "{text}");
     assert!(r["blend"].is_null());
