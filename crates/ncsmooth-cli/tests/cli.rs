@@ -1340,3 +1340,50 @@ fn smooth_writes_for_its_dialect_and_emitter() {
     assert!(n > 20 && n < 401, "{}", r["blocks"]);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// As a LinuxCNC filter (`-o -`, `--dialect linuxcnc`) the program goes to stdout and
+/// `FILTER_PROGRESS=N` lines to stderr, rising to 100; an error exits non-zero with its
+/// message on stderr and nothing on stdout. Other dialects print no progress lines.
+#[test]
+fn smooth_as_a_linuxcnc_filter() {
+    let d = tmpdir("filter");
+    let f = write(
+        &d,
+        "p.ngc",
+        b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\nG1 X0 Y10\nM2\n",
+    );
+    let o = run(&["smooth", f.to_str().unwrap(), "-o", "-"]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    let progress: Vec<u32> = err
+        .lines()
+        .filter_map(|l| l.strip_prefix("FILTER_PROGRESS="))
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        progress.len() >= 3 && progress.windows(2).all(|w| w[0] <= w[1]),
+        "{err}"
+    );
+    assert_eq!(progress.last(), Some(&100));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.starts_with("G21 G90\n") && out.contains("G64 P0.001 Q0"),
+        "{out}"
+    );
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "-o",
+        "-",
+        "--dialect",
+        "grbl",
+    ]);
+    assert!(o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("FILTER_PROGRESS"));
+    let bad = write(&d, "bad.ngc", b"G1 X1 Y\n");
+    let o = run(&["smooth", bad.to_str().unwrap(), "-o", "-"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(o.stdout.is_empty());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("bad.ngc:1:"));
+    let _ = std::fs::remove_dir_all(&d);
+}
