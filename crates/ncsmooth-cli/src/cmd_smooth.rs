@@ -185,6 +185,9 @@ pub enum EmitArg {
     /// Long G1 blocks, and every XY cubic Bézier (the B-spline method's curves) as one
     /// exact `G5` where the dialect reads G5 (LinuxCNC, grblHAL, Marlin).
     G5,
+    /// As `g5`, and every XY NURBS (the NURBS method's curves) as exact `G5.2 ... G5.3`,
+    /// one per Bézier span (LinuxCNC; elsewhere as `g5`).
+    Nurbs,
     /// Move by move.
     Native,
 }
@@ -517,11 +520,15 @@ pub fn smooth_program(
         .with_emit(match emit {
             EmitArg::Native => Emit::Native,
             EmitArg::Arcs => Emit::Arcs,
-            EmitArg::G5 if dialect.has_g5() => Emit::G5 {
+            EmitArg::Nurbs if dialect.has_nurbs() => Emit::Nurbs {
                 min_block_mm: dialect.min_block_mm(0.0),
                 min_block_s: dialect.min_block_s(),
             },
-            EmitArg::Lines | EmitArg::G5 => Emit::Lines {
+            EmitArg::G5 | EmitArg::Nurbs if dialect.has_g5() => Emit::G5 {
+                min_block_mm: dialect.min_block_mm(0.0),
+                min_block_s: dialect.min_block_s(),
+            },
+            EmitArg::Lines | EmitArg::G5 | EmitArg::Nurbs => Emit::Lines {
                 min_block_mm: dialect.min_block_mm(0.0),
                 min_block_s: dialect.min_block_s(),
             },

@@ -105,6 +105,11 @@ impl Dialect {
         matches!(self, Dialect::LinuxCnc | Dialect::GrblHal | Dialect::Marlin)
     }
 
+    /// Whether the controller reads `G5.2`/`G5.3` NURBS (LinuxCNC only).
+    pub fn has_nurbs(self) -> bool {
+        self == Dialect::LinuxCnc
+    }
+
     /// Longest line (characters) the controller reads, if it has a limit.
     pub fn max_line_len(self) -> Option<usize> {
         match self {

@@ -103,6 +103,14 @@ pub enum Emit {
         /// See [`Emit::Lines`].
         min_block_s: f64,
     },
+    /// As [`Emit::G5`], with every NURBS in an XY plane (the NURBS method's curves)
+    /// written exactly as `G5.2 ... G5.3`, one per Bézier span (LinuxCNC).
+    Nurbs {
+        /// See [`Emit::Lines`].
+        min_block_mm: f64,
+        /// See [`Emit::Lines`].
+        min_block_s: f64,
+    },
 }
 
 /// LinuxCNC blending allowed on the written motion: `G64 P<p> Q<q>` is written before
@@ -546,13 +554,18 @@ impl<'a> Region<'a> {
                 Emit::G5 {
                     min_block_mm,
                     min_block_s,
+                }
+                | Emit::Nurbs {
+                    min_block_mm,
+                    min_block_s,
                 } => Some(ChainMode {
                     min_block_mm,
                     min_block_s,
                     arcs: false,
                 }),
             },
-            g5: matches!(opts.emit, Emit::G5 { .. }),
+            g5: matches!(opts.emit, Emit::G5 { .. } | Emit::Nurbs { .. }),
+            nurbs: matches!(opts.emit, Emit::Nurbs { .. }),
             arc_planes: opts.arc_planes,
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();

@@ -37,7 +37,7 @@
 //! rounded radii differ by more than its tolerance.
 
 use ncsmooth::decimal::POW10_U64;
-use ncsmooth::geom::{Arc, CubicBez, Flatten, ParamCurve, Segment, Vec3};
+use ncsmooth::geom::{Arc, CubicBez, Flatten, Nurbs, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Block, EventKind, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
 use std::fmt::{self, Write as _};
@@ -251,6 +251,8 @@ pub(crate) struct Frame {
     pub arc_planes: u8,
     /// Cubic Béziers in the XY plane are written as `G5` (exact).
     pub g5: bool,
+    /// NURBS in the XY plane are written as `G5.2`/`G5.3`, one per Bézier span (exact).
+    pub nurbs: bool,
 }
 
 impl Default for Frame {
@@ -268,6 +270,7 @@ impl Default for Frame {
             chain: None,
             arc_planes: 0b111,
             g5: false,
+            nurbs: false,
         }
     }
 }
@@ -303,6 +306,13 @@ const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 /// this many lines is written as `G2`/`G3` (where its plane allows) and ends the chain of
 /// lines; shorter arcs (the small transitions of a smoothed corner) join the chain.
 pub const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
+
+/// Largest spread of Z (mm) among the control points of a curve written as `G5`/`G5.2`
+/// (which carry no Z): numerical noise of a fit in a plane, below any printed decimal.
+const PLANAR_Z_MM: f64 = 1e-9;
+
+/// Digits after the point of `G5.2` weights.
+const NURBS_WEIGHT_DECIMALS: usize = 12;
 
 /// [`MotionWriter::last_motion`] after a `G5` (no G0-G3 mode is in force).
 pub(crate) const G5_MOTION: u8 = 5;
@@ -604,6 +614,84 @@ impl MotionWriter {
             && !self.frame.diameter
             && !self.long_arc(&m.segment)
             && !self.g5_able(&m.segment)
+            && !self.nurbs_able(&m.segment)
+    }
+
+    /// Whether `s` is a NURBS that `G5.2` carries: NURBS output is on, the curve lies in
+    /// an XY plane (Z constant) and X and Y may be written.
+    fn nurbs_able(&self, s: &Segment) -> bool {
+        match s {
+            Segment::Nurbs(n) => self.nurbs_curve_able(n),
+            _ => false,
+        }
+    }
+
+    /// See [`MotionWriter::nurbs_able`].
+    fn nurbs_curve_able(&self, n: &Nurbs) -> bool {
+        let z0 = n.ctrl()[0].z;
+        self.frame.nurbs
+            && !self.frame.diameter
+            && self.allowed(0)
+            && self.allowed(1)
+            && n.ctrl().iter().all(|c| (c.z - z0).abs() <= PLANAR_Z_MM)
+    }
+
+    /// Writes a NURBS as one `G5.2 ... G5.3` per Bézier span (A5.6), each LinuxCNC's
+    /// rational B-spline of order `degree + 1` on the clamped knots `0^k 1^k`, i.e. the
+    /// span's rational Bézier with its weights scaled so that the first is 1 (LinuxCNC
+    /// gives the current point weight 1): the same curve, moved by the rounding of its
+    /// control points at most (positive weights: a convex combination of them). Interior
+    /// control points get [`CENTRE_EXTRA_DECIMALS`] more digits. False when it must be
+    /// flattened.
+    fn try_nurbs<W: fmt::Write>(
+        &mut self,
+        m: &Move,
+        n: &Nurbs,
+        out: &mut W,
+    ) -> Result<bool, fmt::Error> {
+        if !self.nurbs_curve_able(n) {
+            return Ok(false);
+        }
+        let order = n.degree() + 1;
+        for piece in n.bezier_pieces() {
+            let w0 = piece[0][3];
+            for (i, q) in piece.iter().enumerate().skip(1) {
+                let (x, y, w) = (q[0] / q[3], q[1] / q[3], q[3] / w0);
+                self.begin();
+                if i == 1 {
+                    if self.frame.plane != 17 {
+                        self.line.push_str("G17 ");
+                        self.frame.plane = 17;
+                    }
+                    self.line.push_str("G5.2");
+                }
+                if i + 1 == order {
+                    self.axis(0, x, true);
+                    self.axis(1, y, true);
+                } else {
+                    let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
+                    for (letter, v) in [('X', x), ('Y', y)] {
+                        self.scratch.clear();
+                        push_fixed(&mut self.scratch, v / self.frame.scale, decimals);
+                        self.line.push(' ');
+                        self.line.push(letter);
+                        self.line.push_str(&self.scratch);
+                    }
+                }
+                self.line.push_str(" P");
+                push_fixed(&mut self.line, w, NURBS_WEIGHT_DECIMALS);
+                if i == 1 {
+                    let _ = write!(self.line, " L{order}");
+                    self.feed(m);
+                }
+                self.end(out)?;
+            }
+            self.begin();
+            self.line.push_str("G5.3");
+            self.end(out)?;
+        }
+        self.last_motion = Some(G5_MOTION);
+        Ok(true)
     }
 
     /// Whether `s` is a cubic Bézier that `G5` carries: G5 is on, the curve lies in an XY
@@ -616,7 +704,9 @@ impl MotionWriter {
             && !self.frame.diameter
             && self.allowed(0)
             && self.allowed(1)
-            && [b.p1.z, b.p2.z, b.p3.z].iter().all(|&z| z == b.p0.z)
+            && [b.p1.z, b.p2.z, b.p3.z]
+                .iter()
+                .all(|&z| (z - b.p0.z).abs() <= PLANAR_Z_MM)
     }
 
     /// Writes a cubic Bézier as `G5 X Y I J P Q` (first control point relative to the
@@ -830,6 +920,12 @@ impl MotionWriter {
             Segment::Line(l) => self.linear(m, l.p1, m.extra.as_ref(), out),
             Segment::Arc(a) => {
                 if !self.try_arc(m, a, out)? {
+                    self.flattened(m, out)?;
+                }
+                Ok(())
+            }
+            Segment::Nurbs(n) if self.frame.nurbs => {
+                if !self.try_nurbs(m, n, out)? {
                     self.flattened(m, out)?;
                 }
                 Ok(())

@@ -490,3 +490,40 @@ fn g5_carries_the_bspline_corners_exactly() {
         }
     }
 }
+
+/// `G5.2 ... G5.3`: the NURBS method's curves are written exactly, one NURBS per Bézier
+/// span; read back, the path is the smoothed one to 1e-9 mm (9 decimals).
+#[test]
+fn nurbs_are_written_exactly_span_by_span() {
+    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+    let mut src = String::from("G21 G90 G17\nG0 X10 Y0 Z1\nG1 F600\n");
+    for k in 1..=60 {
+        let a = 1.5 * k as f64 / 60.0;
+        src += &format!("X{:.4} Y{:.4}\n", 10.0 * a.cos(), 10.0 * a.sin());
+    }
+    src += "M2\n";
+    let p = parse(&src).unwrap();
+    let opts = SmoothOptions {
+        method: Method::Nurbs,
+        tol_mm: 0.01,
+        ..Default::default()
+    };
+    let smoothed = smooth(&p.toolpath, &opts).unwrap().toolpath;
+    let n_nurbs = smoothed
+        .moves()
+        .filter(|m| matches!(m.segment, Segment::Nurbs(_)))
+        .count();
+    assert!(n_nurbs >= 1);
+    let emit = RewriteOptions::new(9, 1e-3).with_emit(Emit::Nurbs {
+        min_block_mm: 0.0,
+        min_block_s: 0.0,
+    });
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &emit).unwrap()).unwrap();
+    assert!(text.contains("G5.2 ") && text.contains("G5.3"), "{text}");
+    let back = parse(&text).unwrap().toolpath;
+    let dev = ncsmooth::verify::deviation(&back, &smoothed, 1e-10);
+    assert!(
+        dev.output_to_programmed_mm <= 1e-9 && dev.vertex_to_output_mm <= 1e-9,
+        "{dev:?}\n{text}"
+    );
+}
