@@ -178,7 +178,10 @@ fn verdict(r: &serde_json::Value) -> Result<String, String> {
     if r["ok"].as_bool() == Some(true) {
         Ok(summary)
     } else {
-        Err(format!("failed {}: {summary}", r["failed"]))
+        Err(format!(
+            "failed {} (interpreter errors {}): {summary}",
+            r["failed_checks"], r["interpreter_errors"]
+        ))
     }
 }
 
