@@ -338,7 +338,7 @@ pub struct BlockReport {
     pub turns_over_1_deg: usize,
     /// ... by more than 5 degrees.
     pub turns_over_5_deg: usize,
-    /// Lines longer than the dialect reads (the first one's number), if any.
+    /// Lines longer than the dialect reads.
     pub long_lines: usize,
     /// First line longer than the dialect reads (1-based), 0 when none.
     pub first_long_line: usize,
@@ -374,7 +374,6 @@ impl BlockReport {
             }
         }
         let (bi, bo) = (blocks(&a), blocks(&b));
-        let _ = a;
         BlockReport {
             blocks_in: bi,
             blocks_out: bo,

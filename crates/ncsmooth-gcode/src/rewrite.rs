@@ -185,12 +185,7 @@ pub fn decimals_for(units: Units, decimals: usize) -> usize {
 
 /// Largest distance (mm) a point moves when written with `decimals` in `units`.
 pub fn rounding_mm_for(units: Units, decimals: usize) -> f64 {
-    let d = decimals_for(units, decimals);
-    let unit_mm = match units {
-        Units::Millimetres => 1.0,
-        Units::Inches => 25.4,
-    };
-    crate::writer::rounding_mm(d) * unit_mm
+    crate::writer::rounding_mm(decimals_for(units, decimals)) * unit_mm(units)
 }
 
 /// Why a rewrite is impossible (a bug in what produced the toolpath, never bad input).
@@ -487,6 +482,7 @@ fn path_mode_text(mode: PathMode, units: Units) -> Option<String> {
     }
 }
 
+/// Millimetres per unit of `units`.
 fn unit_mm(units: Units) -> f64 {
     match units {
         Units::Millimetres => 1.0,
@@ -522,10 +518,7 @@ impl<'a> Region<'a> {
         opts: &RewriteOptions,
     ) -> Region<'a> {
         let st = info.before;
-        let scale = match st.units {
-            Units::Millimetres => 1.0,
-            Units::Inches => 25.4,
-        };
+        let scale = unit_mm(st.units);
         let frame = Frame {
             decimals: decimals_for(st.units, opts.decimals),
             chord_mm: opts.chord_mm,
@@ -538,20 +531,16 @@ impl<'a> Region<'a> {
             extra_mask: 0,
             chain: match opts.emit {
                 Emit::Native => None,
-                Emit::Lines {
-                    min_block_mm,
-                    min_block_s,
-                } => Some(ChainMode {
-                    min_block_mm,
-                    min_block_s,
-                    arcs: false,
-                }),
                 Emit::Arcs => Some(ChainMode {
                     min_block_mm: 0.0,
                     min_block_s: 0.0,
                     arcs: true,
                 }),
-                Emit::G5 {
+                Emit::Lines {
+                    min_block_mm,
+                    min_block_s,
+                }
+                | Emit::G5 {
                     min_block_mm,
                     min_block_s,
                 }

@@ -592,6 +592,19 @@ impl MotionWriter {
         self.end(out)
     }
 
+    /// Appends ` <letter><v>` for a length `v` (mm) in written units with
+    /// [`CENTRE_EXTRA_DECIMALS`] more digits than the coordinates: arc centres, G5 control
+    /// offsets and interior G5.2 control points, which must not add their own rounding
+    /// to that of the end points.
+    fn push_fine(&mut self, letter: char, v: f64) {
+        self.scratch.clear();
+        let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
+        push_fixed(&mut self.scratch, v / self.frame.scale, decimals);
+        self.line.push(' ');
+        self.line.push(letter);
+        self.line.push_str(&self.scratch);
+    }
+
     /// Where `p` (mm) will be read back from: each writable axis rounded to the written
     /// decimals (the others are not written).
     fn rounded(&self, p: Vec3) -> Vec3 {
@@ -669,14 +682,8 @@ impl MotionWriter {
                     self.axis(0, x, true);
                     self.axis(1, y, true);
                 } else {
-                    let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
-                    for (letter, v) in [('X', x), ('Y', y)] {
-                        self.scratch.clear();
-                        push_fixed(&mut self.scratch, v / self.frame.scale, decimals);
-                        self.line.push(' ');
-                        self.line.push(letter);
-                        self.line.push_str(&self.scratch);
-                    }
+                    self.push_fine('X', x);
+                    self.push_fine('Y', y);
                 }
                 self.line.push_str(" P");
                 push_fixed(&mut self.line, w, NURBS_WEIGHT_DECIMALS);
@@ -697,9 +704,14 @@ impl MotionWriter {
     /// Whether `s` is a cubic Bézier that `G5` carries: G5 is on, the curve lies in an XY
     /// plane (Z constant) and X and Y may be written.
     fn g5_able(&self, s: &Segment) -> bool {
-        let Segment::CubicBez(b) = s else {
-            return false;
-        };
+        match s {
+            Segment::CubicBez(b) => self.g5_curve_able(b),
+            _ => false,
+        }
+    }
+
+    /// See [`MotionWriter::g5_able`].
+    fn g5_curve_able(&self, b: &CubicBez) -> bool {
         self.frame.g5
             && !self.frame.diameter
             && self.allowed(0)
@@ -719,7 +731,7 @@ impl MotionWriter {
         b: &CubicBez,
         out: &mut W,
     ) -> Result<bool, fmt::Error> {
-        if !self.g5_able(&Segment::CubicBez(*b)) {
+        if !self.g5_curve_able(b) {
             return Ok(false);
         }
         let start = self.written_pos();
@@ -732,20 +744,10 @@ impl MotionWriter {
         self.axis(0, b.p3.x, true);
         self.axis(1, b.p3.y, true);
         let end = self.written_pos();
-        let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
-        let offsets = [
-            ('I', b.p1.x - start.x),
-            ('J', b.p1.y - start.y),
-            ('P', b.p2.x - end.x),
-            ('Q', b.p2.y - end.y),
-        ];
-        for (letter, v) in offsets {
-            self.scratch.clear();
-            push_fixed(&mut self.scratch, v / self.frame.scale, decimals);
-            self.line.push(' ');
-            self.line.push(letter);
-            self.line.push_str(&self.scratch);
-        }
+        self.push_fine('I', b.p1.x - start.x);
+        self.push_fine('J', b.p1.y - start.y);
+        self.push_fine('P', b.p2.x - end.x);
+        self.push_fine('Q', b.p2.y - end.y);
         self.feed(m);
         // G5 is a motion mode of its own: a following modal line must get its code back.
         self.last_motion = Some(G5_MOTION);
@@ -790,11 +792,10 @@ impl MotionWriter {
                     e += 1;
                 }
             }
-            if e - k == 1
-                && !matches!(m.segment, Segment::Line(_) | Segment::Arc(_))
-                && self.chainable(m)
-                || e - k > 1
-            {
+            // A lone line or arc is written as itself; a lone curve is flattened as a chain.
+            let lone_curve =
+                self.chainable(m) && !matches!(m.segment, Segment::Line(_) | Segment::Arc(_));
+            if e - k > 1 || lone_curve {
                 let min_block = mode
                     .min_block_mm
                     .max(m.feed_mm_s.unwrap_or(0.0) * mode.min_block_s);
@@ -1040,17 +1041,12 @@ impl MotionWriter {
             if i == normal_axis {
                 continue;
             }
-            self.scratch.clear();
-            let decimals = self.decimals() + CENTRE_EXTRA_DECIMALS;
             let c = if self.frame.arc_absolute {
                 coord(a.center, i)
             } else {
                 coord(a.center, i) - coord(start_written, i)
             };
-            push_fixed(&mut self.scratch, c / self.frame.scale, decimals);
-            self.line.push(' ');
-            self.line.push(CENTRE[i]);
-            self.line.push_str(&self.scratch);
+            self.push_fine(CENTRE[i], c);
         }
         if turns > 1.0 {
             let _ = write!(self.line, " P{}", turns as u64);
