@@ -551,12 +551,13 @@ pub fn smooth_program(
             .map_err(|e| anyhow::anyhow!("the written G-code does not read back: {e}"))
     };
     let as_written = read_back(&gcode)?;
-    let written = if loop_mode {
-        read_back(&write(&without_loops(&smoothed.toolpath))?)?
+    let without = if loop_mode {
+        Some(read_back(&write(&without_loops(&smoothed.toolpath))?)?)
     } else {
-        as_written.clone()
+        None
     };
-    let dev = deviation(&written, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
+    let written = without.as_ref().unwrap_or(&as_written);
+    let dev = deviation(written, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
     let blocks = BlockReport::of(src, &program.toolpath, &gcode, &as_written, dialect);
     let loops_ok = match (loops, loop_size) {
         (Some(l), Some(size)) => l.within(size),
