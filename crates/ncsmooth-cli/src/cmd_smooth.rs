@@ -24,7 +24,7 @@ use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, Loo
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::stats::PathStats;
 use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
-use ncsmooth_gcode::rewrite::{Blend, Emit};
+use ncsmooth_gcode::rewrite::{Blend, BlockFloor, Emit};
 use ncsmooth_gcode::{Dialect, RewriteOptions};
 use serde::Serialize;
 use std::io::Write;
@@ -508,6 +508,11 @@ pub fn smooth_program(
         (false, None, _) => EmitArg::Lines,
         (false, Some(e), _) => e,
     };
+    // A stepper controller is given no block of a step or two: the program's own G1 lines
+    // between the smoothed ones go through the long-lines emitter too, where its short
+    // blocks are lifted (a copied line is never lifted).
+    let floor = dialect.block_floor_mm().is_some()
+        && matches!(emit, EmitArg::Lines | EmitArg::G5 | EmitArg::Nurbs);
     let wopts = RewriteOptions::new(decimals.min(MAX_DECIMALS), chord)
         .with_header(format!(
             "ncsmooth {} --method {} --tol {tol} --dialect {} (from {name})",
@@ -532,7 +537,11 @@ pub fn smooth_program(
                 min_block_s: dialect.min_block_s(),
             },
         })
-        .with_rewrite_unchanged(compress);
+        .with_rewrite_unchanged(compress || (floor && method != Method::None))
+        .with_block_floor(dialect.block_floor_mm().map(|m| BlockFloor {
+            min_block_mm: m,
+            tol_mm: tol - rounding - blend_mm,
+        }));
     let write = |tp: &ncsmooth::Toolpath| {
         ncsmooth_gcode::rewrite(src, program, tp, &wopts)
             .map_err(|e| anyhow::anyhow!("writing the smoothed program: {e}"))

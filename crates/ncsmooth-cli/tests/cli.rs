@@ -1306,6 +1306,19 @@ fn smooth_writes_for_its_dialect_and_emitter() {
         "{native} {lines}"
     );
     assert_eq!(r["within_tol"], true);
+    // grbl is given no block of a step or two: the corner transitions' micrometre blocks
+    // are lifted against the program (the generic dialect keeps them).
+    let (_, r) = smooth(&["--dialect", "generic"]);
+    let generic_min = r["blocks"]["min_block_mm"].as_f64().unwrap();
+    assert!(generic_min < 0.03, "{}", r["blocks"]);
+    let (_, r) = smooth(&["--dialect", "grbl"]);
+    let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
+    assert!(
+        min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
+        "{}",
+        r["blocks"]
+    );
+    assert_eq!(r["within_tol"], true);
     // `none` with an emitter compresses the program's own lines: the 399-segment circle
     // becomes a few arcs (ArcWelder's idea, within the two-sided tolerance).
     let smooth_none = |emit: &str| -> (String, serde_json::Value) {

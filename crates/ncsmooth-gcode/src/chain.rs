@@ -21,7 +21,13 @@
 //! 4. a last block shorter than `min_block_mm` is merged into the one before when that
 //!    stays within tolerance, or the two share their span at its middle dense point.
 //!
-//! What it bounds: every point of the dense polyline (hence of the curve, within the dense
+//! 5. for a stepper controller ([`crate::Dialect::block_floor_mm`]), blocks still shorter
+//!    than its floor are lifted against the *programmed* path ([`lift_short_blocks`]): a
+//!    corner transition a few micrometres across is a step or two the controller turns in
+//!    whatever direction its rounding gives, and the programmed corner, which it takes at
+//!    its own junction speed, is within the tolerance by definition.
+//!
+//! What it bounds (steps 1-4): every point of the dense polyline (hence of the curve, within the dense
 //! accuracy) lies within `chord` of the written polyline and every written point within
 //! `chord` of the curve, rounding included; the proof is the convexity of the distance to
 //! a segment (dense chords between two points within `t` of a segment stay within `t`)
@@ -359,6 +365,171 @@ fn balance_tail(
     }
 }
 
+/// Samples per tolerance along a segment in [`lift_short_blocks`]' check: the distance to
+/// the program is 1-Lipschitz along the segment, so samples `tol / SAMPLES_PER_TOL` apart
+/// bound it between them within half that step, which the check deducts.
+const SAMPLES_PER_TOL: f64 = 16.0;
+
+/// The programmed path a written stretch is checked against in [`lift_short_blocks`]: a
+/// polyline (curves flattened, with their flattening accuracy deducted from `tol_mm`) and
+/// the two-sided tolerance left for the written blocks.
+#[derive(Clone, Copy, Debug)]
+pub struct Program<'a> {
+    /// The programmed path as a polyline (mm).
+    pub points: &'a [Vec3],
+    /// Largest distance (mm), both ways, between the written blocks and `points`.
+    pub tol_mm: f64,
+}
+
+impl Program<'_> {
+    /// Distance from `p` to the programmed segments `segs` (indices of their starts).
+    fn dist(&self, p: Vec3, segs: &[usize]) -> f64 {
+        segs.iter()
+            .map(|&k| seg_dist(p, self.points[k], self.points[k + 1]).0)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Starts of the programmed segments whose box comes within `margin` of the box of
+    /// `a`-`b`.
+    fn near(&self, a: Vec3, b: Vec3, margin: f64, out: &mut Vec<usize>) {
+        out.clear();
+        let (lo, hi) = (
+            a.min(b) - Vec3::new(margin, margin, margin),
+            a.max(b) + Vec3::new(margin, margin, margin),
+        );
+        for (k, w) in self.points.windows(2).enumerate() {
+            let (plo, phi) = (w[0].min(w[1]), w[0].max(w[1]));
+            if plo.min(hi) == plo && phi.max(lo) == phi {
+                out.push(k);
+            }
+        }
+    }
+
+    /// Whether every point of the segment `a`-`b` lies within the tolerance of the
+    /// programmed path.
+    fn covers(&self, a: Vec3, b: Vec3, scratch: &mut Vec<usize>) -> bool {
+        let step = self.tol_mm / SAMPLES_PER_TOL;
+        let within = self.tol_mm - 0.5 * step;
+        self.near(a, b, self.tol_mm, scratch);
+        let n = (a.dist(b) / step).ceil().max(1.0) as usize;
+        (0..=n).all(|i| self.dist(a + (b - a) * (i as f64 / n as f64), scratch) <= within)
+    }
+}
+
+/// Distance from `p` to the polyline `pl`.
+fn polyline_dist(p: Vec3, pl: &[Vec3]) -> f64 {
+    pl.windows(2)
+        .map(|w| seg_dist(p, w[0], w[1]).0)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Written neighbours on each side of a replaced stretch that the programmed vertices
+/// near it are measured against (besides the new blocks).
+const CHECK_NEIGHBOURS: usize = 2;
+
+/// Whether replacing the written points strictly between `poly[lo]` and `poly[hi]` by
+/// `new` keeps the stretch within the program's tolerance both ways: every point of the
+/// new blocks near the programmed path, and every programmed vertex that was near the
+/// replaced blocks near the new local polyline.
+fn replacement_fits(
+    poly: &[Vec3],
+    lo: usize,
+    hi: usize,
+    new: Option<Vec3>,
+    program: &Program,
+    scratch: &mut Vec<usize>,
+) -> bool {
+    let first = lo.saturating_sub(CHECK_NEIGHBOURS);
+    let last = (hi + CHECK_NEIGHBOURS).min(poly.len() - 1);
+    let mut local: Vec<Vec3> = poly[first..=lo].to_vec();
+    local.extend(new);
+    local.extend_from_slice(&poly[hi..=last]);
+    let new_from = lo - first;
+    let new_to = new_from + 1 + usize::from(new.is_some());
+    if !(new_from..new_to).all(|k| program.covers(local[k], local[k + 1], scratch)) {
+        return false;
+    }
+    // The programmed vertices whose nearest written point may have been on a removed block.
+    let tol = program.tol_mm;
+    let (mut lo_box, mut hi_box) = (poly[lo], poly[lo]);
+    for &p in &poly[lo..=hi] {
+        lo_box = lo_box.min(p);
+        hi_box = hi_box.max(p);
+    }
+    let pad = Vec3::new(tol, tol, tol);
+    let (lo_box, hi_box) = (lo_box - pad, hi_box + pad);
+    program
+        .points
+        .iter()
+        .filter(|v| v.min(lo_box) == lo_box && v.max(hi_box) == hi_box)
+        .all(|&v| polyline_dist(v, &local) <= tol)
+}
+
+/// The programmed vertex nearest to `p`.
+fn nearest_vertex(points: &[Vec3], p: Vec3) -> Option<Vec3> {
+    points
+        .iter()
+        .copied()
+        .min_by(|a, b| a.dist(p).total_cmp(&b.dist(p)))
+}
+
+/// Removes written blocks shorter than `min_block_mm` (a stepper controller's few steps:
+/// a block of one or two steps turns in whatever direction its rounding gives) where the
+/// written path, checked against the programmed path itself rather than the smoothed
+/// curve, stays within `program.tol_mm` both ways. Each short block from `start` through
+/// `pts` (whose last point stays) is tried, in order, as: its two
+/// ends replaced by the nearest programmed vertex (a corner transition too small for the
+/// controller becomes the programmed corner, which the controller takes at its own
+/// junction speed), its end dropped, or its start dropped. A block no replacement fits
+/// stays. `round` maps a point to where it will be printed. Returns the blocks left
+/// shorter than `min_block_mm`.
+pub fn lift_short_blocks(
+    start: Vec3,
+    pts: &mut Vec<Vec3>,
+    min_block_mm: f64,
+    program: &Program,
+    round: impl Fn(Vec3) -> Vec3,
+) -> usize {
+    let mut poly = Vec::with_capacity(pts.len() + 1);
+    poly.push(start);
+    poly.append(pts);
+    let mut scratch = Vec::new();
+    let mut i = 1;
+    while i < poly.len() {
+        if poly[i - 1].dist(poly[i]) >= min_block_mm {
+            i += 1;
+            continue;
+        }
+        let n = poly.len();
+        let mid = (poly[i - 1] + poly[i]) * 0.5;
+        let snap = nearest_vertex(program.points, mid).map(&round);
+        // (lo, hi, new point): the points strictly between lo and hi are replaced.
+        let inner = i >= 2 && i + 1 < n;
+        let tries = [
+            inner.then_some((i - 2, i + 1, Some(round(mid)))),
+            (i + 1 < n).then_some((i - 1, i + 1, None)),
+            (i >= 2).then_some((i - 2, i, None)),
+            inner.then_some((i - 2, i + 1, snap)),
+        ];
+        let fit = tries
+            .into_iter()
+            .flatten()
+            .find(|&(lo, hi, new)| replacement_fits(&poly, lo, hi, new, program, &mut scratch));
+        match fit {
+            Some((lo, hi, new)) => {
+                poly.splice(lo + 1..hi, new);
+                // The blocks around the change are looked at again.
+                i = lo.max(1);
+            }
+            None => i += 1,
+        }
+    }
+    pts.extend_from_slice(&poly[1..]);
+    poly.windows(2)
+        .filter(|w| w[0].dist(w[1]) < min_block_mm)
+        .count()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -556,6 +727,111 @@ mod tests {
                 }
             }
             prop_assert!(worst <= tol * (1.0 + 1e-9), "{}", worst);
+        }
+    }
+
+    /// A sharp programmed corner with a written transition of blocks far below the floor.
+    fn corner_case() -> (Vec<Vec3>, Vec3, Vec<Vec3>) {
+        let program = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ];
+        // A quarter circle of radius 0.008 cut into 1.6 um blocks inside the corner.
+        let mut pts = vec![Vec3::new(0.992, 0.0, 0.0)];
+        for k in 1..=8 {
+            let a = std::f64::consts::FRAC_PI_2 * k as f64 / 8.0;
+            pts.push(Vec3::new(
+                0.992 + 0.008 * a.sin(),
+                0.008 - 0.008 * a.cos(),
+                0.0,
+            ));
+        }
+        pts.push(Vec3::new(1.0, 1.0, 0.0));
+        (program, Vec3::ZERO, pts)
+    }
+
+    #[test]
+    fn short_blocks_of_a_corner_are_lifted_within_the_program_tolerance() {
+        let (program, start, mut pts) = corner_case();
+        let prog = Program {
+            points: &program,
+            tol_mm: 0.01,
+        };
+        let left = lift_short_blocks(start, &mut pts, 0.03, &prog, |p| p);
+        let mut out = vec![start];
+        out.extend_from_slice(&pts);
+        assert_eq!(left, 0, "{out:?}");
+        assert!(out.windows(2).all(|w| w[0].dist(w[1]) >= 0.03), "{out:?}");
+        assert!(one_sided(&out, &program) <= 0.01);
+        assert!(program.iter().all(|&v| dist_to_polyline(v, &out) <= 0.01));
+        assert_eq!(*out.last().unwrap(), Vec3::new(1.0, 1.0, 0.0));
+    }
+
+    #[test]
+    fn short_blocks_stay_where_the_program_tolerance_is_too_tight() {
+        // The transition is 0.0023 mm inside the corner; a 1 um tolerance forbids every
+        // replacement that would lengthen its blocks.
+        let (program, start, mut pts) = corner_case();
+        let before = pts.clone();
+        let prog = Program {
+            points: &program,
+            tol_mm: 0.001,
+        };
+        let left = lift_short_blocks(start, &mut pts, 0.03, &prog, |p| p);
+        assert!(left > 0);
+        let mut out = vec![start];
+        out.extend_from_slice(&pts);
+        // What was changed is still within the tolerance.
+        assert!(pts.len() <= before.len());
+        assert!(
+            one_sided(&out, &program) <= 0.0031,
+            "{}",
+            one_sided(&out, &program)
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Lifting keeps the written polyline within the program tolerance both ways when
+        /// it starts there: a noisy resampling of a random polyline, every block checked.
+        #[test]
+        fn lifting_stays_within_the_program_tolerance(
+            turns in proptest::collection::vec(-2.5f64..2.5, 2..8),
+            lens in proptest::collection::vec(0.02f64..0.5, 8),
+            step in 0.002f64..0.02,
+            noise in proptest::collection::vec(-1.0f64..1.0, 400),
+        ) {
+            let tol = 0.01;
+            let mut program = vec![Vec3::ZERO];
+            let mut dir: f64 = 0.0;
+            for (k, t) in turns.iter().enumerate() {
+                dir += t;
+                let p = *program.last().unwrap();
+                program.push(p + Vec3::new(dir.cos(), dir.sin(), 0.0) * lens[k]);
+            }
+            // Written: points every `step` along the program, moved sideways by up to
+            // tol / 2, the last point exact.
+            let mut pts = Vec::new();
+            let mut n = 0;
+            for w in program.windows(2) {
+                let d = w[1] - w[0];
+                let m = (d.norm() / step).ceil() as usize;
+                let side = Vec3::new(-d.y, d.x, 0.0) * (1.0 / d.norm());
+                for j in 1..=m {
+                    let e = noise[n % noise.len()] * tol * 0.5;
+                    n += 1;
+                    pts.push(w[0] + d * (j as f64 / m as f64) + side * e);
+                }
+            }
+            *pts.last_mut().unwrap() = *program.last().unwrap();
+            let prog = Program { points: &program, tol_mm: tol };
+            lift_short_blocks(Vec3::ZERO, &mut pts, 0.03, &prog, |p| p);
+            let mut out = vec![Vec3::ZERO];
+            out.extend_from_slice(&pts);
+            prop_assert!(one_sided(&out, &program) <= tol + 1e-12);
+            prop_assert!(program.iter().all(|&v| dist_to_polyline(v, &out) <= tol + 1e-12));
+            prop_assert_eq!(*out.last().unwrap(), *program.last().unwrap());
         }
     }
 }

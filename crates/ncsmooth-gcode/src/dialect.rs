@@ -15,9 +15,11 @@
 //! other controllers run the written polyline exactly (their corner speed rules only slow
 //! the machine down). Comments and the program's own lines are copied for every dialect.
 
-/// Smallest block (mm) the stepper dialects aim for: 4 steps at 200 steps/mm, so that a
-/// block is never a step or two whose rounding turns it in an arbitrary direction.
-pub const STEPPER_MIN_BLOCK_MM: f64 = 0.02;
+/// Smallest block (mm) the stepper dialects aim for: 4 steps at 200 steps/mm (0.02 mm),
+/// plus the controller's rounding of both ends to whole steps (up to half a step per axis
+/// at each end, 0.005 sqrt(3) mm in all), so that the block the controller executes is
+/// never a step or two whose rounding turns it in an arbitrary direction.
+pub const STEPPER_MIN_BLOCK_MM: f64 = 0.03;
 
 /// LinuxCNC's trajectory planner caps a segment's speed at its length over this many
 /// servo periods (`TP_MIN_SEGMENT_CYCLES` in tp.c).
@@ -81,6 +83,20 @@ impl Dialect {
                 STEPPER_MIN_BLOCK_MM
             }
             Dialect::Generic => 0.0,
+        }
+    }
+
+    /// Shortest block (mm) the controller should never be given: a stepper controller's
+    /// few steps ([`STEPPER_MIN_BLOCK_MM`]), below which a block's direction is its
+    /// rounding. Shorter blocks are lifted where the program's tolerance allows
+    /// ([`crate::rewrite::BlockFloor`]). `None` for LinuxCNC (its short blocks only run
+    /// slower, see [`Dialect::min_block_mm`]) and `generic`.
+    pub fn block_floor_mm(self) -> Option<f64> {
+        match self {
+            Dialect::Grbl | Dialect::GrblHal | Dialect::Marlin | Dialect::Klipper => {
+                Some(STEPPER_MIN_BLOCK_MM)
+            }
+            Dialect::LinuxCnc | Dialect::Generic => None,
         }
     }
 

@@ -25,9 +25,9 @@
 //! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
 
 use crate::source::{flags, LineInfo, PathMode, WriteState};
-use crate::writer::{push_fixed, ChainMode, Frame, MotionWriter, MAX_DECIMALS};
+use crate::writer::{push_fixed, ChainMode, Floor, Frame, MotionWriter, MAX_DECIMALS};
 use crate::{Plane, Program};
-use ncsmooth::geom::ParamCurve;
+use ncsmooth::geom::{Flatten, ParamCurve, Vec3};
 use ncsmooth::path::{Move, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
@@ -57,7 +57,26 @@ pub struct RewriteOptions {
     /// program's own G1 runs with [`Emit::Lines`] or [`Emit::Arcs`]). Default false:
     /// unchanged lines are copied verbatim.
     pub rewrite_unchanged: bool,
+    /// Under [`Emit::Lines`], [`Emit::G5`] and [`Emit::Nurbs`]: blocks shorter than the
+    /// floor are lifted where the written path stays within its tolerance of the
+    /// programmed path ([`crate::chain::lift_short_blocks`]). Default `None`.
+    pub block_floor: Option<BlockFloor>,
 }
+
+/// The shortest block a stepper controller should be given, and the tolerance against
+/// the programmed path within which shorter ones may be lifted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlockFloor {
+    /// Shortest block (mm).
+    pub min_block_mm: f64,
+    /// Two-sided tolerance (mm) of the written path against the programmed one: what is
+    /// left of the user's tolerance after the printed decimals and any blending.
+    pub tol_mm: f64,
+}
+
+/// Accuracy of the programmed curves' flattening for [`BlockFloor`], as a share of its
+/// tolerance (deducted from it).
+pub const FLOOR_PROGRAM_SHARE: f64 = 0.01;
 
 impl Default for RewriteOptions {
     fn default() -> Self {
@@ -69,6 +88,7 @@ impl Default for RewriteOptions {
             blend: None,
             arc_planes: 0b111,
             rewrite_unchanged: false,
+            block_floor: None,
         }
     }
 }
@@ -157,6 +177,14 @@ impl RewriteOptions {
     pub fn with_rewrite_unchanged(self, all: bool) -> RewriteOptions {
         RewriteOptions {
             rewrite_unchanged: all,
+            ..self
+        }
+    }
+
+    /// The same options with a block floor.
+    pub fn with_block_floor(self, block_floor: Option<BlockFloor>) -> RewriteOptions {
+        RewriteOptions {
+            block_floor,
             ..self
         }
     }
@@ -368,13 +396,14 @@ pub fn rewrite(
                 Region::open(&mut s, eol, info, first_move(i), extra_mask, opts)
             });
             r.pending.extend_from_slice(w);
+            r.add_program(orig_by[i]);
             if r.w.frame.chain.is_none() {
-                r.flush(&mut s)?;
+                r.flush(&mut s, &orig)?;
             }
             r.end_state = info.state;
         } else {
             if let Some(mut r) = region.take() {
-                r.flush(&mut s)?;
+                r.flush(&mut s, &orig)?;
                 pending_motion = r.close(&mut s, eol);
             }
             match pending_motion {
@@ -400,7 +429,7 @@ pub fn rewrite(
         }
     }
     if let Some(mut r) = region.take() {
-        r.flush(&mut s)?;
+        r.flush(&mut s, &orig)?;
         r.close(&mut s, eol);
     }
     if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
@@ -438,7 +467,16 @@ struct Region<'a> {
     eol: &'static str,
     /// The `G64` written at the start of the run, if any.
     blend: Option<Blend>,
+    /// The block floor, if any, and the programmed moves of the run so far (indices into
+    /// the program's moves).
+    floor: Option<BlockFloor>,
+    program: Option<(usize, usize)>,
 }
+
+/// Programmed moves on each side of a replaced run that its written blocks are also
+/// checked against under a block floor: a corner transition or a run curve reaches past
+/// the lines it is written on when a comment or other unchanged line ends the run.
+const FLOOR_CONTEXT_MOVES: usize = 8;
 
 /// `G64 P Q` (or `G61` when `P` would print as 0, which LinuxCNC reads as no bound) for
 /// `blend` in a program in `units`, each value rounded down to `decimals`.
@@ -482,6 +520,14 @@ fn path_mode_text(mode: PathMode, units: Units) -> Option<String> {
     }
 }
 
+/// Whether `emit` writes runs as long G1 blocks (where a block floor applies).
+fn frame_chains_lines(emit: Emit) -> bool {
+    matches!(
+        emit,
+        Emit::Lines { .. } | Emit::G5 { .. } | Emit::Nurbs { .. }
+    )
+}
+
 /// Millimetres per unit of `units`.
 fn unit_mm(units: Units) -> f64 {
     match units {
@@ -491,12 +537,49 @@ fn unit_mm(units: Units) -> f64 {
 }
 
 impl<'a> Region<'a> {
-    /// Writes the pending moves.
-    fn flush(&mut self, s: &mut Vec<u8>) -> Result<(), RewriteError> {
+    /// Adds the programmed moves `range` of a replaced line to the run's.
+    fn add_program(&mut self, range: (usize, usize)) {
+        if range.1 > range.0 {
+            self.program = Some(match self.program {
+                Some((lo, _)) => (lo, range.1),
+                None => range,
+            });
+        }
+    }
+
+    /// The programmed path of the run and [`FLOOR_CONTEXT_MOVES`] on each side, as a
+    /// polyline (curves flattened within `accuracy`).
+    fn program_polyline(&self, orig: &[&Move], accuracy: f64) -> Vec<Vec3> {
+        let Some((lo, hi)) = self.program else {
+            return Vec::new();
+        };
+        let lo = lo.saturating_sub(FLOOR_CONTEXT_MOVES);
+        let hi = (hi + FLOOR_CONTEXT_MOVES).min(orig.len());
+        let mut pts: Vec<Vec3> = Vec::new();
+        for m in &orig[lo..hi] {
+            let p0 = m.segment.start();
+            if pts.last() != Some(&p0) {
+                pts.push(p0);
+            }
+            m.segment.flatten(accuracy, &mut |p| pts.push(p));
+        }
+        pts
+    }
+
+    /// Writes the pending moves (`orig`: the program's moves, for a block floor).
+    fn flush(&mut self, s: &mut Vec<u8>, orig: &[&Move]) -> Result<(), RewriteError> {
         let Some(first) = self.pending.first() else {
             return Ok(());
         };
         let line = first.line;
+        if let Some(f) = self.floor {
+            self.w.floor = Some(Floor {
+                program: self.program_polyline(orig, f.tol_mm * FLOOR_PROGRAM_SHARE),
+                tol_mm: f.tol_mm * (1.0 - FLOOR_PROGRAM_SHARE),
+                min_block_mm: f.min_block_mm,
+            });
+            self.program = None;
+        }
         self.w
             .write_moves(&self.pending, &mut self.buf)
             .map_err(|_| RewriteError::BadLine { line })?;
@@ -586,6 +669,8 @@ impl<'a> Region<'a> {
             end_state: st,
             eol,
             blend: opts.blend,
+            floor: opts.block_floor.filter(|_| frame_chains_lines(opts.emit)),
+            program: None,
         }
     }
 

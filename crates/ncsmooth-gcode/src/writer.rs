@@ -223,6 +223,19 @@ pub(crate) struct ChainMode {
     pub arcs: bool,
 }
 
+/// The programmed path of the moves being written and the tolerance left for the written
+/// blocks against it: blocks shorter than `min_block_mm` are lifted where the program
+/// allows ([`crate::chain::lift_short_blocks`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Floor {
+    /// The programmed path as a polyline (mm).
+    pub program: Vec<Vec3>,
+    /// Two-sided tolerance (mm) of the written blocks against `program`.
+    pub tol_mm: f64,
+    /// Shortest block the controller should be given (mm).
+    pub min_block_mm: f64,
+}
+
 /// How a [`MotionWriter`] writes: units, modes and which axes it may write.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Frame {
@@ -298,6 +311,8 @@ pub(crate) struct MotionWriter {
     points: Vec<Vec3>,
     /// An axis that may not be written would have had to change: (axis, value mm).
     pub violation: Option<(char, f64)>,
+    /// Under a long-lines emitter, short blocks are lifted against this program.
+    pub floor: Option<Floor>,
 }
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
@@ -377,6 +392,7 @@ impl MotionWriter {
             last_motion: None,
             points: Vec::new(),
             violation: None,
+            floor: None,
         };
         w.forget_axes();
         w
@@ -839,13 +855,15 @@ impl MotionWriter {
         let r = if arcs {
             self.write_arc_pieces(moves[0], &dense, &hard, tol, out)
         } else {
-            self.write_lines(moves[0], &dense, &hard, tol, min_block_mm, out)
+            self.write_lines(moves[0], &dense, &hard, tol, min_block_mm, true, out)
         };
         self.points = dense;
         r
     }
 
-    /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]).
+    /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]);
+    /// with `lift` and a [`Floor`], short blocks are then lifted against the program.
+    #[allow(clippy::too_many_arguments)]
     fn write_lines<W: fmt::Write>(
         &mut self,
         m: &Move,
@@ -853,6 +871,7 @@ impl MotionWriter {
         hard: &[bool],
         tol: f64,
         min_block_mm: f64,
+        lift: bool,
         out: &mut W,
     ) -> fmt::Result {
         let mut pts = Vec::with_capacity(dense.len() / 4 + 2);
@@ -864,6 +883,17 @@ impl MotionWriter {
             |p| self.rounded(p),
             &mut pts,
         );
+        if let Some(f) = lift.then(|| self.floor.take()).flatten() {
+            let program = crate::chain::Program {
+                points: &f.program,
+                tol_mm: f.tol_mm,
+            };
+            let start = self.written_pos();
+            crate::chain::lift_short_blocks(start, &mut pts, f.min_block_mm, &program, |p| {
+                self.rounded(p)
+            });
+            self.floor = Some(f);
+        }
         pts.into_iter()
             .try_for_each(|p| self.linear(m, p, None, out))
     }
@@ -898,7 +928,7 @@ impl MotionWriter {
                     };
                     if !written {
                         let span = &dense[from..=to];
-                        self.write_lines(m, span, &hard[from..=to], tol, 0.0, out)?;
+                        self.write_lines(m, span, &hard[from..=to], tol, 0.0, false, out)?;
                     }
                 }
             }
