@@ -340,7 +340,7 @@ fn classify(
 
 /// The curvature and chord-error caps on `v^2` of move `mv` of `index` at the arc length
 /// `s` (clamped to the move; the curvature read just inside its ends).
-fn point_caps(index: &PathIndex<'_>, caps: &Caps, mv: usize, s: f64) -> (f64, f64) {
+fn point_caps(index: &PathIndex, caps: &Caps, mv: usize, s: f64) -> (f64, f64) {
     let m = &index.moves[mv];
     let t = m
         .segment

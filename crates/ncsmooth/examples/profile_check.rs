@@ -76,7 +76,7 @@ fn main() {
                 mv -= 1;
             }
             let m = &index.moves[mv];
-            let seg: &Segment = m.segment;
+            let seg: &Segment = &m.segment;
             let t = seg.inv_arclen((s_at - m.s0).clamp(0.0, m.len), ACCURACY_MM);
             let tan = seg.deriv(t).normalized().unwrap_or_default();
             let k = seg.curvature_vec(t);

@@ -132,9 +132,9 @@ pub enum After {
 
 /// One move as the planner sees it.
 #[derive(Clone, Debug)]
-pub struct PlanMove<'a> {
+pub struct PlanMove {
     /// Geometry.
-    pub segment: &'a Segment,
+    pub segment: Segment,
     /// Rapid or feed.
     pub kind: MoveKind,
     /// Speed cap (mm/s): the feed or rapid rate.
@@ -246,9 +246,9 @@ impl ExtraRest {
 
 /// The program's moves in arc length, with the joints classified.
 #[derive(Clone, Debug)]
-pub struct PathIndex<'a> {
+pub struct PathIndex {
     /// Moves (zero-length moves dropped).
-    pub moves: Vec<PlanMove<'a>>,
+    pub moves: Vec<PlanMove>,
     /// Start point of the program.
     pub start: Vec3,
     /// Events before the first move: `(reason, dwell seconds)`, if any.
@@ -380,10 +380,10 @@ fn tangent_at(seg: &Segment, t: f64) -> Vec3 {
     })
 }
 
-impl<'a> PathIndex<'a> {
+impl PathIndex {
     /// Indexes `path` under `opts` (which supplies the feed and rapid rates and the joint
     /// rule). `opts` must be valid.
-    pub fn new(path: &'a Toolpath, opts: &PlanOptions) -> PathIndex<'a> {
+    pub fn new(path: &Toolpath, opts: &PlanOptions) -> PathIndex {
         let caps = caps_of(opts);
         let lens = move_lens_and_joints(path, opts, &caps);
         let mut b = IndexBuilder {
@@ -439,10 +439,10 @@ impl<'a> PathIndex<'a> {
 }
 
 /// The state of [`PathIndex::new`] while it walks the program's blocks.
-struct IndexBuilder<'a, 'o> {
+struct IndexBuilder<'o> {
     opts: &'o PlanOptions,
     caps: &'o Caps,
-    moves: Vec<PlanMove<'a>>,
+    moves: Vec<PlanMove>,
     /// The stop being collected before the next move (reason, time at rest).
     pending: Option<(StopReason, f64)>,
     lead: Option<(StopReason, f64)>,
@@ -457,7 +457,7 @@ struct IndexBuilder<'a, 'o> {
     prev_no: Option<usize>,
 }
 
-impl<'a> IndexBuilder<'a, '_> {
+impl IndexBuilder<'_> {
     fn machine(&self, v: ExtraAxes) -> ExtraAxes {
         std::array::from_fn(|i| v[i] + self.offset[i])
     }
@@ -519,7 +519,7 @@ impl<'a> IndexBuilder<'a, '_> {
     }
 
     /// Indexes move number `this_no` (its length and joint in `lens`).
-    fn push_move(&mut self, m: &'a Move, this_no: usize, lens: &[(f64, Option<After>)]) {
+    fn push_move(&mut self, m: &Move, this_no: usize, lens: &[(f64, Option<After>)]) {
         let opts = self.opts;
         let extra_start = self.prog.or(m.extra).map(|v| self.machine(v));
         let extra_end = m.extra.map(|v| self.machine(v));
@@ -554,7 +554,7 @@ impl<'a> IndexBuilder<'a, '_> {
                 None => match prev_no {
                     // The joint computed with the lengths.
                     Some(p) if p + 1 == this_no => lens[p].1.expect("a move follows"),
-                    _ => joint_after(prev.segment, &m.segment, opts, caps),
+                    _ => joint_after(&prev.segment, &m.segment, opts, caps),
                 },
             };
         } else if let Some(p) = self.pending.take() {
@@ -562,7 +562,7 @@ impl<'a> IndexBuilder<'a, '_> {
         }
         self.rests.extend(self.rest.take());
         self.moves.push(PlanMove {
-            segment: &m.segment,
+            segment: m.segment.clone(),
             kind: m.kind,
             vcap_mm_s: vcap,
             s0: self.s,
@@ -971,8 +971,8 @@ pub const GRID_BATCH_MOVES: usize = 256;
 pub const GRID_QUEUE_BATCHES: usize = 16;
 
 /// Lazily generates grid points and intervals from a [`PathIndex`].
-pub struct GridGen<'p, 'a> {
-    index: &'p PathIndex<'a>,
+pub struct GridGen<'p> {
+    index: &'p PathIndex,
     caps: Caps,
     /// Swept angle of arc intervals ([`arc_step`]).
     arc_step: f64,
@@ -990,9 +990,9 @@ pub struct GridGen<'p, 'a> {
     pub blended: usize,
 }
 
-impl<'p, 'a> GridGen<'p, 'a> {
+impl<'p> GridGen<'p> {
     /// A generator at the start of the program.
-    pub fn new(index: &'p PathIndex<'a>, opts: &PlanOptions) -> Self {
+    pub fn new(index: &'p PathIndex, opts: &PlanOptions) -> Self {
         let caps = caps_of(opts);
         GridGen {
             index,
@@ -1082,7 +1082,7 @@ impl<'p, 'a> GridGen<'p, 'a> {
     fn move_intervals(&self, j: usize, out: &mut Vec<(Interval, f64)>) -> f64 {
         let m = &self.index.moves[j];
         let caps = &self.caps;
-        match m.segment {
+        match &m.segment {
             Segment::Line(l) => {
                 let t = (l.p1 - l.p0).normalized().unwrap_or(Vec3::X);
                 let cap = point_cap_x(t, Vec3::ZERO, m.vcap_mm_s, caps);

@@ -261,7 +261,7 @@ fn pieces(iv: &Interval, s0: f64, p: f64, q: f64, out: &mut Vec<ProfilePiece>) {
 /// Plans the whole program of `index` under `opts` (which must be valid), calling `sink`
 /// with the profile pieces and stops in order. Memory is bounded by the window size.
 pub fn plan_stream(
-    index: &PathIndex<'_>,
+    index: &PathIndex,
     opts: &PlanOptions,
     sink: impl FnMut(PlanEvent),
 ) -> PlanStats {
@@ -323,8 +323,8 @@ fn forward_prefix(
 
 /// [`plan_stream`] with the grid from `gen`.
 fn plan_with(
-    gen: &mut GridGen<'_, '_>,
-    index: &PathIndex<'_>,
+    gen: &mut GridGen<'_>,
+    index: &PathIndex,
     opts: &PlanOptions,
     mut sink: impl FnMut(PlanEvent),
 ) -> PlanStats {

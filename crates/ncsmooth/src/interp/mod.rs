@@ -325,8 +325,8 @@ impl StepCurve for CubicBez {
 }
 
 /// Walks the path of a [`PathIndex`] to planned arc lengths.
-pub struct Interpolator<'p, 'a> {
-    index: &'p PathIndex<'a>,
+pub struct Interpolator<'p> {
+    index: &'p PathIndex,
     opts: InterpOptions,
     cur: usize,
     u: f64,
@@ -346,9 +346,9 @@ pub struct Interpolator<'p, 'a> {
     pub stats: InterpStats,
 }
 
-impl<'p, 'a> Interpolator<'p, 'a> {
+impl<'p> Interpolator<'p> {
     /// At the start of the program.
-    pub fn new(index: &'p PathIndex<'a>, opts: InterpOptions) -> Self {
+    pub fn new(index: &'p PathIndex, opts: InterpOptions) -> Self {
         let p = index
             .moves
             .first()
@@ -416,7 +416,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
             if len <= 0.0 {
                 return (self.p, self.extra());
             }
-            if let Segment::Line(l) = m.segment {
+            if let Segment::Line(l) = &m.segment {
                 let u = ((s_target - m.s0) / m.len).clamp(self.u, 1.0);
                 let p = l.p0.lerp(l.p1, u);
                 let eta = 1.0 - p.dist(self.p) / len;
@@ -426,7 +426,7 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                 self.p = p;
                 return (p, self.extra());
             }
-            if let Segment::Trig(c) = m.segment {
+            if let Segment::Trig(c) = &m.segment {
                 let prepared = match self.prepared {
                     Some((j, p)) if j == self.cur => p,
                     _ => {
@@ -436,13 +436,13 @@ impl<'p, 'a> Interpolator<'p, 'a> {
                     }
                 };
                 self.step_curve(&prepared, len);
-            } else if let Segment::CubicBez(c) = m.segment {
+            } else if let Segment::CubicBez(c) = &m.segment {
                 self.step_curve(c, len);
-            } else if let Some(p) = self.nurbs_pieces(m.segment) {
+            } else if let Some(p) = self.nurbs_pieces(&m.segment) {
                 self.step_curve(&p, len);
                 self.prepared_nurbs = Some((self.cur, p));
             } else {
-                self.step_curve(m.segment, len);
+                self.step_curve(&m.segment, len);
             }
             return (self.p, self.extra());
         }

@@ -328,8 +328,8 @@ impl EmitQueue {
 /// Turns planned samples `(t, s, v)` into setpoints: collected in batches, interpolated,
 /// given the extra-axis motion of the stop they rest at (if any), and sent to the writing
 /// thread ([`write_setpoints`]); stops when that thread hangs up. Times the interpolation.
-struct Emitter<'i, 'p, 'a> {
-    interp: Interpolator<'p, 'a>,
+struct Emitter<'i, 'p> {
+    interp: Interpolator<'p>,
     /// To the writing thread; `None` once it hung up (a write failed).
     out: Option<std::sync::mpsc::SyncSender<Vec<Setpoint>>>,
     rests: &'i [ExtraRest],
@@ -341,7 +341,7 @@ struct Emitter<'i, 'p, 'a> {
     interp_s: f64,
 }
 
-impl<'i, 'p, 'a> Emitter<'i, 'p, 'a> {
+impl<'i, 'p> Emitter<'i, 'p> {
     /// Handles the items of the planning thread until it hangs up or a write fails.
     fn run(&mut self, rx: std::sync::mpsc::Receiver<Vec<EmitItem>>) {
         for items in rx {

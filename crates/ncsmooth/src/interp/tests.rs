@@ -664,7 +664,7 @@ fn step_arclen_matches_adaptive_quadrature() {
 /// lengths and statistics must be the same bit for bit. Returns the statistics of each
 /// run (with the correction, then without).
 fn assert_steps_match<C: StepCurve>(
-    idx: &crate::feed::PathIndex<'_>,
+    idx: &crate::feed::PathIndex,
     seg: &Segment,
     fast_curve: &C,
     len: impl Fn(usize) -> f64,
