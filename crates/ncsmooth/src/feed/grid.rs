@@ -78,7 +78,9 @@ use crate::geom::{
 };
 use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
+use super::window::{MoveWindow, Reader, Summary};
 use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::Arc;
 
 /// Largest tangent turn (degrees) inside one curved grid interval, whatever the
 /// accelerations: a per-axis velocity limit checked at the ends is exceeded inside by at
@@ -244,11 +246,14 @@ impl ExtraRest {
     }
 }
 
-/// The program's moves in arc length, with the joints classified.
+/// The program's moves in arc length, with the joints classified: the whole program
+/// ([`PathIndex::new`]) or a window of a streamed one ([`PathIndex::streamed`]).
 #[derive(Clone, Debug)]
 pub struct PathIndex {
-    /// Moves (zero-length moves dropped).
+    /// Moves (zero-length moves dropped) of a whole program; empty when streamed.
     pub moves: Vec<PlanMove>,
+    /// The window of a streamed program.
+    stream: Option<Arc<MoveWindow>>,
     /// Start point of the program.
     pub start: Vec3,
     /// Events before the first move: `(reason, dwell seconds)`, if any.
@@ -425,6 +430,7 @@ impl PathIndex {
         b.rests.extend(b.rest.take());
         PathIndex {
             moves: b.moves,
+            stream: None,
             start: path.start,
             lead: b.lead,
             total_len: b.s,
@@ -432,9 +438,144 @@ impl PathIndex {
             rests: b.rests,
         }
     }
+    /// The index of a streamed program whose moves arrive in `window` (see
+    /// [`super::window`]); `start` is where the program starts when it has no move.
+    pub fn streamed(window: Arc<MoveWindow>, start: Vec3, extra_axes_mask: u8) -> PathIndex {
+        PathIndex {
+            moves: Vec::new(),
+            stream: Some(window),
+            start,
+            lead: None,
+            total_len: 0.0,
+            extra_axes_mask,
+            rests: Vec::new(),
+        }
+    }
+
+    /// Move `j` (waiting for it when streamed), `None` past the end.
+    #[inline]
+    pub fn get(&self, j: usize) -> Option<MoveRef<'_>> {
+        match &self.stream {
+            None => self.moves.get(j).map(MoveRef::Borrowed),
+            Some(w) => w.get(j).map(MoveRef::Shared),
+        }
+    }
+
+    /// Rest `k` (see [`PathIndex::rests`]), waiting for it when streamed.
+    pub fn rest(&self, k: usize) -> Option<RestRef<'_>> {
+        match &self.stream {
+            None => self.rests.get(k).map(RestRef::Borrowed),
+            Some(w) => w.rest(k).map(RestRef::Shared),
+        }
+    }
+
+    /// `reader` needs no move below `j` (a streamed program drops them).
+    #[inline]
+    pub fn release(&self, reader: Reader, j: usize) {
+        if let Some(w) = &self.stream {
+            w.release(reader, j);
+        }
+    }
+
+    /// The interpolator needs no rest below `k`.
+    pub fn release_rests(&self, k: usize) {
+        if let Some(w) = &self.stream {
+            w.release_rests(k);
+        }
+    }
+
+    /// `reader` does not read this index.
+    pub fn not_reading(&self, reader: Reader) {
+        if let Some(w) = &self.stream {
+            w.not_reading(reader);
+        }
+    }
+
+    /// Whether the program is streamed.
+    pub fn is_streamed(&self) -> bool {
+        self.stream.is_some()
+    }
+
+    /// Whether the program is known to have fewer than `n` moves (a streamed one is
+    /// taken as long).
+    pub fn shorter_than(&self, n: usize) -> bool {
+        self.stream.is_none() && self.moves.len() < n
+    }
+
+    /// The events before the first move (waiting for them when streamed).
+    pub fn lead(&self) -> Option<(StopReason, f64)> {
+        match &self.stream {
+            None => self.lead,
+            Some(w) => w.lead(),
+        }
+    }
+
+    /// Where motion starts: the first move's start, or the program's start.
+    pub fn start_point(&self) -> Vec3 {
+        match &self.stream {
+            None => self.moves.first().map_or(self.start, |m| m.segment.start()),
+            Some(w) => w.start(self.start),
+        }
+    }
+
+    /// Moves, total length and end point (waiting for the end when streamed).
+    pub fn summary(&self) -> Summary {
+        match &self.stream {
+            None => Summary {
+                moves: self.moves.len(),
+                total_len: self.total_len,
+                end: self.end_point(),
+            },
+            Some(w) => w.summary(),
+        }
+    }
+
     /// End point of the program.
     pub fn end_point(&self) -> Vec3 {
-        self.moves.last().map_or(self.start, |m| m.segment.end())
+        match &self.stream {
+            None => self.moves.last().map_or(self.start, |m| m.segment.end()),
+            Some(w) => w.summary().end,
+        }
+    }
+}
+
+/// A move of a [`PathIndex`]: borrowed from a whole program's index or shared from a
+/// streamed one's window.
+#[derive(Clone, Debug)]
+pub enum MoveRef<'a> {
+    /// In a whole program's index.
+    Borrowed(&'a PlanMove),
+    /// In a streamed program's window.
+    Shared(Arc<PlanMove>),
+}
+
+impl std::ops::Deref for MoveRef<'_> {
+    type Target = PlanMove;
+    #[inline]
+    fn deref(&self) -> &PlanMove {
+        match self {
+            MoveRef::Borrowed(m) => m,
+            MoveRef::Shared(m) => m,
+        }
+    }
+}
+
+/// A rest of a [`PathIndex`] (as [`MoveRef`]).
+#[derive(Clone, Debug)]
+pub enum RestRef<'a> {
+    /// In a whole program's index.
+    Borrowed(&'a ExtraRest),
+    /// In a streamed program's window.
+    Shared(Arc<ExtraRest>),
+}
+
+impl std::ops::Deref for RestRef<'_> {
+    type Target = ExtraRest;
+    fn deref(&self) -> &ExtraRest {
+        match self {
+            RestRef::Borrowed(r) => r,
+            RestRef::Shared(r) => r,
+        }
     }
 }
 
@@ -973,6 +1114,8 @@ pub const GRID_QUEUE_BATCHES: usize = 16;
 /// Lazily generates grid points and intervals from a [`PathIndex`].
 pub struct GridGen<'p> {
     index: &'p PathIndex,
+    /// Which reader of a streamed index this generator is.
+    reader: Reader,
     caps: Caps,
     /// Swept angle of arc intervals ([`arc_step`]).
     arc_step: f64,
@@ -996,6 +1139,7 @@ impl<'p> GridGen<'p> {
         let caps = caps_of(opts);
         GridGen {
             index,
+            reader: Reader::GridConsumer,
             arc_step: arc_step(&caps),
             caps,
             next_move: 0,
@@ -1011,27 +1155,32 @@ impl<'p> GridGen<'p> {
     /// [`GRID_BATCH_MOVES`] (for a generator on another thread that [`GridGen::take_from`]
     /// the receiver); stops early when the receiver hangs up.
     pub fn produce(&self, tx: SyncSender<GridBatch>) {
-        let n = self.index.moves.len();
         let mut j = 0;
         // Room for as many intervals as the last batch had, and a quarter more, so that a
         // batch's vector seldom grows by copying.
         let mut room = 0;
-        while j < n {
-            let end = (j + GRID_BATCH_MOVES).min(n);
+        let mut more = true;
+        while more {
             let mut batch = GridBatch {
-                moves: Vec::with_capacity(end - j),
+                moves: Vec::with_capacity(GRID_BATCH_MOVES),
                 intervals: Vec::with_capacity(room + room / 4),
             };
-            for k in j..end {
-                let cap = self.move_intervals(k, &mut batch.intervals);
+            while batch.moves.len() < GRID_BATCH_MOVES {
+                self.index.release(Reader::GridProducer, j);
+                let Some(m) = self.index.get(j) else {
+                    more = false;
+                    break;
+                };
+                let cap = self.intervals_of(&m, &mut batch.intervals);
                 batch.moves.push((cap, batch.intervals.len()));
+                j += 1;
             }
             room = batch.intervals.len();
-            if tx.send(batch).is_err() {
-                return;
+            if !batch.moves.is_empty() && tx.send(batch).is_err() {
+                break;
             }
-            j = end;
         }
+        self.index.not_reading(Reader::GridProducer);
     }
 
     /// Takes the move grids from `rx` (fed by [`GridGen::produce`] of a generator over
@@ -1039,6 +1188,12 @@ impl<'p> GridGen<'p> {
     /// on another thread while this one plans.
     pub fn take_from(&mut self, rx: Receiver<GridBatch>) {
         self.ahead = Some(rx);
+    }
+
+    /// This generator is the one on the grid producer's thread (for a streamed index).
+    pub fn as_producer(mut self) -> Self {
+        self.reader = Reader::GridProducer;
+        self
     }
 
     /// The grid of move `j`, the next one (from the producer when there is one): its start
@@ -1074,13 +1229,18 @@ impl<'p> GridGen<'p> {
     }
     /// True when every move has been generated.
     pub fn done(&self) -> bool {
-        self.pending.0 == self.pending.1 && self.next_move >= self.index.moves.len()
+        self.pending.0 == self.pending.1 && self.index.get(self.next_move).is_none()
     }
 
-    /// Appends the intervals of move `j` to `out`, each with the cap of its end point from
-    /// the move's own geometry, and returns the cap of the move's start point.
+    /// Appends the intervals of move `j` to `out` ([`GridGen::intervals_of`]).
     fn move_intervals(&self, j: usize, out: &mut Vec<(Interval, f64)>) -> f64 {
-        let m = &self.index.moves[j];
+        let m = self.index.get(j).expect("the move exists");
+        self.intervals_of(&m, out)
+    }
+
+    /// Appends the intervals of move `m` to `out`, each with the cap of its end point from
+    /// the move's own geometry, and returns the cap of the move's start point.
+    fn intervals_of(&self, m: &PlanMove, out: &mut Vec<(Interval, f64)>) -> f64 {
         let caps = &self.caps;
         match &m.segment {
             Segment::Line(l) => {
@@ -1243,7 +1403,10 @@ impl<'p> GridGen<'p> {
                 return false;
             }
             if self.pending.0 == self.pending.1 {
-                if self.next_move >= self.index.moves.len() {
+                // The last move's end is read below; those before are done with.
+                self.index
+                    .release(self.reader, self.next_move.saturating_sub(1));
+                if self.index.get(self.next_move).is_none() {
                     // Nothing left (empty program): the first point is the end.
                     if let Some(p) = pts.last_mut() {
                         p.stop = Some((StopReason::End, 0.0));
@@ -1271,7 +1434,7 @@ impl<'p> GridGen<'p> {
                 stop: None,
             };
             if self.pending.0 == self.pending.1 {
-                let m = &self.index.moves[self.next_move - 1];
+                let m = self.index.get(self.next_move - 1).expect("the move exists");
                 pt.s = m.s0 + m.len;
                 match m.after {
                     After::Stop { reason, dwell_s } => {

@@ -267,13 +267,14 @@ pub fn plan_stream(
 ) -> PlanStats {
     let mut gen = GridGen::new(index, opts);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    if threads < 2 || index.moves.len() < GRID_THREAD_MIN_MOVES {
+    if threads < 2 || index.shorter_than(GRID_THREAD_MIN_MOVES) {
+        index.not_reading(super::window::Reader::GridProducer);
         return plan_with(&mut gen, index, opts, sink);
     }
     // The grid of the moves ahead is computed on a second thread while this one runs the
     // passes (the same grid: each move's is computed alone, in order).
     std::thread::scope(|scope| {
-        let producer = GridGen::new(index, opts);
+        let producer = GridGen::new(index, opts).as_producer();
         let (tx, rx) = std::sync::mpsc::sync_channel(super::grid::GRID_QUEUE_BATCHES);
         scope.spawn(move || producer.produce(tx));
         gen.take_from(rx);
@@ -330,7 +331,7 @@ fn plan_with(
 ) -> PlanStats {
     let mut stats = PlanStats::default();
     let caps = *gen.caps();
-    if let Some((reason, dwell_s)) = index.lead {
+    if let Some((reason, dwell_s)) = index.lead() {
         stats.stops.add(reason);
         sink(PlanEvent::Stop {
             s: 0.0,

@@ -92,6 +92,7 @@ pub mod grid;
 pub mod jerk;
 pub mod limits;
 pub mod lookahead;
+pub mod window;
 
 pub use grid::{PathIndex, PlanMove};
 pub use lookahead::{plan_stream, PlanEvent, PlanStats, ProfilePiece};

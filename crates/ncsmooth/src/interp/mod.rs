@@ -75,6 +75,8 @@ pub use setpoints::{
 };
 pub use sink::{FnSink, Measured, NullSink, PrintedRow, SetpointSink};
 
+use crate::feed::grid::MoveRef;
+use crate::feed::window::Reader;
 use crate::feed::PathIndex;
 pub use crate::geom::step_arclen::{step_arclen, STEP_ARCLEN_ACCURACY_MM};
 use crate::geom::{
@@ -329,6 +331,8 @@ pub struct Interpolator<'p> {
     index: &'p PathIndex,
     opts: InterpOptions,
     cur: usize,
+    /// Move `cur`, `None` for a program without moves.
+    cur_move: Option<MoveRef<'p>>,
     u: f64,
     s: f64,
     p: Vec3,
@@ -349,14 +353,15 @@ pub struct Interpolator<'p> {
 impl<'p> Interpolator<'p> {
     /// At the start of the program.
     pub fn new(index: &'p PathIndex, opts: InterpOptions) -> Self {
-        let p = index
-            .moves
-            .first()
+        let first = index.get(0);
+        let p = first
+            .as_ref()
             .map_or(index.start, |m| m.segment.start());
         Interpolator {
             index,
             opts,
             cur: 0,
+            cur_move: first,
             u: 0.0,
             s: 0.0,
             p,
@@ -375,7 +380,7 @@ impl<'p> Interpolator<'p> {
 
     /// Extra-axis values at the current place.
     fn extra(&self) -> Option<ExtraAxes> {
-        let m = self.index.moves.get(self.cur)?;
+        let m = self.cur_move.as_ref()?;
         let (a, b) = m.extra?;
         let f = ((self.s - m.s0) / m.len).clamp(0.0, 1.0);
         let mut v = a;
@@ -388,23 +393,29 @@ impl<'p> Interpolator<'p> {
     /// The point (and extra axes) at arc length `s_target`, which must not decrease from
     /// call to call.
     pub fn advance(&mut self, s_target: f64) -> (Vec3, Option<ExtraAxes>) {
-        let moves = &self.index.moves;
-        if moves.is_empty() {
+        let Some(mut m) = self.cur_move.clone() else {
             return (self.index.start, None);
-        }
+        };
         loop {
-            let m = &moves[self.cur];
             let s_end = m.s0 + m.len;
             if s_target >= s_end {
-                if s_target > s_end && self.cur + 1 < moves.len() {
+                let next = if s_target > s_end {
+                    self.index.get(self.cur + 1)
+                } else {
+                    None
+                };
+                if let Some(next) = next {
                     self.cur += 1;
+                    self.index.release(Reader::Interpolator, self.cur);
                     self.u = 0.0;
-                    self.s = moves[self.cur].s0;
-                    let next = moves[self.cur].segment.start();
-                    if next.dist(m.segment.end()) > crate::verify::GAP_TOL_MM {
+                    self.s = next.s0;
+                    let start = next.segment.start();
+                    if start.dist(m.segment.end()) > crate::verify::GAP_TOL_MM {
                         self.jumped = true;
                     }
-                    self.p = next;
+                    self.p = start;
+                    self.cur_move = Some(next.clone());
+                    m = next;
                     continue;
                 }
                 self.u = 1.0;

@@ -27,12 +27,11 @@
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
 use super::sink::{Measured, SetpointSink};
 use super::{InterpOptions, InterpStats, Interpolator};
-use crate::feed::grid::ExtraRest;
+use crate::feed::grid::RestRef;
 use crate::feed::{
     plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
     StopReason, PRINT_RESOLUTION_MM,
 };
-use crate::geom::ParamCurve;
 use crate::path::{Toolpath, EXTRA_AXIS_NAMES};
 use serde::Serialize;
 use std::io::{self, Write};
@@ -332,11 +331,12 @@ struct Emitter<'i, 'p> {
     interp: Interpolator<'p>,
     /// To the writing thread; `None` once it hung up (a write failed).
     out: Option<std::sync::mpsc::SyncSender<Vec<Setpoint>>>,
-    rests: &'i [ExtraRest],
+    /// Where the rests come from.
+    index: &'i PathIndex,
     /// Next rest to look at.
     next_rest: usize,
     /// The stop whose extra-axis motions apply: when they begin (s) and the rest.
-    rest: Option<(f64, &'i ExtraRest)>,
+    rest: Option<(f64, RestRef<'i>)>,
     batch: Vec<(f64, f64, f64)>,
     interp_s: f64,
 }
@@ -362,16 +362,19 @@ impl<'i, 'p> Emitter<'i, 'p> {
     /// `begin`. Samples queued before belong to the motion before and are written first.
     fn rest_at(&mut self, s: f64, begin: f64) {
         self.flush();
-        while self.next_rest < self.rests.len() && self.rests[self.next_rest].s < s {
+        let mut next = self.index.rest(self.next_rest);
+        while next.as_ref().is_some_and(|r| r.s < s) {
             self.next_rest += 1;
+            next = self.index.rest(self.next_rest);
         }
-        self.rest = match self.rests.get(self.next_rest) {
+        self.rest = match next {
             Some(r) if r.s == s => {
                 self.next_rest += 1;
                 Some((begin, r))
             }
             _ => None,
         };
+        self.index.release_rests(self.next_rest);
     }
 
     /// Interpolates the queued samples and sends them to the writing thread.
@@ -383,9 +386,9 @@ impl<'i, 'p> Emitter<'i, 'p> {
         let mut points = Vec::with_capacity(self.batch.len());
         for &(time, s, feed) in &self.batch {
             let (p, mut extra) = self.interp.advance(s);
-            if let Some((begin, r)) = self.rest {
+            if let Some((begin, r)) = &self.rest {
                 // At rest on the stop's point, after its extra-axis motions began.
-                if s == r.s && time >= begin {
+                if s == r.s && time >= *begin {
                     extra = Some(r.at(time - begin));
                 }
             }
@@ -489,7 +492,7 @@ pub fn execute_into<S: SetpointSink + Send>(
     let mut emitter = Emitter {
         interp: Interpolator::new(&index, *iopts),
         out: Some(out_tx),
-        rests: &index.rests,
+        index: &index,
         next_rest: 0,
         rest: None,
         batch: Vec::with_capacity(EMIT_BATCH),
@@ -571,22 +574,20 @@ pub fn execute_into<S: SetpointSink + Send>(
             }
         })
         .collect();
-    let end = index.end_point();
+    let summary = index.summary();
+    let end = summary.end;
     let dist = |p: Option<(f64, [f64; 3])>, q: crate::geom::Vec3| {
         p.map_or(f64::NAN, |(_, x)| crate::geom::Vec3::from_array(x).dist(q))
     };
-    let start = index
-        .moves
-        .first()
-        .map_or(index.start, |m| m.segment.start());
+    let start = index.start_point();
     let cycle = last.map_or(0.0, |(t, _)| t);
     let report = PlanReport {
         options: popts.clone(),
         interp_options: *iopts,
         cycle_time_s: cycle,
         setpoints: rows,
-        path_length_mm: index.total_len,
-        moves: index.moves.len(),
+        path_length_mm: summary.total_len,
+        moves: summary.moves,
         interp: interp.stats.clone(),
         extra_axes,
         limits_held: axes.iter().all(|a| a.v_within && a.a_within && a.j_within),
