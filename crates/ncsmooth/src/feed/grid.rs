@@ -391,43 +391,18 @@ impl PathIndex {
     pub fn new(path: &Toolpath, opts: &PlanOptions) -> PathIndex {
         let caps = caps_of(opts);
         let lens = move_lens_and_joints(path, opts, &caps);
-        let mut b = IndexBuilder {
-            opts,
-            caps: &caps,
-            moves: Vec::new(),
-            pending: None,
-            lead: None,
-            s: 0.0,
-            prog: None,
-            offset: [0.0; 7],
-            extra_acc: opts.acc_mm_s2.iter().copied().fold(f64::INFINITY, f64::min),
-            rests: Vec::new(),
-            rest: None,
-            prev_no: None,
-        };
-        // Number of the current move (in `lens`).
-        let mut move_no = 0usize;
+        let mut b = IndexBuilder::new(opts, caps);
+        let mut lens = lens.into_iter();
         for block in &path.blocks {
             match block {
                 Block::Event(e) => b.event(&e.kind),
                 Block::Move(m) => {
-                    b.push_move(m, move_no, &lens);
-                    move_no += 1;
+                    let (len, joint) = lens.next().expect("one per move");
+                    b.push_move(m, len, joint);
                 }
             }
         }
-        if let Some((_, d)) = b.pending {
-            match b.moves.last_mut() {
-                Some(m) => {
-                    m.after = After::Stop {
-                        reason: StopReason::End,
-                        dwell_s: d,
-                    }
-                }
-                None => b.lead = b.pending,
-            }
-        }
-        b.rests.extend(b.rest.take());
+        b.end();
         PathIndex {
             moves: b.moves,
             stream: None,
@@ -461,11 +436,13 @@ impl PathIndex {
         }
     }
 
-    /// Rest `k` (see [`PathIndex::rests`]), waiting for it when streamed.
-    pub fn rest(&self, k: usize) -> Option<RestRef<'_>> {
+    /// Rest `k` (see [`PathIndex::rests`]) when there is one at or before arc length `s`
+    /// (or later); `None` when there is none up to `s` (waiting, when streamed, until
+    /// that is known).
+    pub fn rest(&self, k: usize, s: f64) -> Option<RestRef<'_>> {
         match &self.stream {
             None => self.rests.get(k).map(RestRef::Borrowed),
-            Some(w) => w.rest(k).map(RestRef::Shared),
+            Some(w) => w.rest(k, s).map(RestRef::Shared),
         }
     }
 
@@ -539,6 +516,131 @@ impl PathIndex {
     }
 }
 
+/// Moves a [`IndexFeeder`] indexes at a time: their lengths and joints are computed in
+/// parallel as [`PathIndex::new`] does for a whole program.
+pub const FEED_BATCH_MOVES: usize = 4096;
+
+/// Indexes a program that arrives block by block into the [`MoveWindow`] of a streamed
+/// [`PathIndex`]: each move's length and joint, its stop, extra-axis rests, exactly as
+/// [`PathIndex::new`] indexes a whole program (same functions, same order), a batch of
+/// [`FEED_BATCH_MOVES`] at a time. The last move indexed is held back until the next one
+/// (its joint) or the end is known.
+pub struct IndexFeeder<'o> {
+    builder: IndexBuilder<'o>,
+    window: Arc<MoveWindow>,
+    buf: Vec<Block>,
+    buf_moves: usize,
+    lead_sent: bool,
+    /// End of the last move published.
+    end: Option<Vec3>,
+    published: usize,
+}
+
+impl<'o> IndexFeeder<'o> {
+    /// A feeder of `window` under `opts` (which must be valid).
+    pub fn new(opts: &'o PlanOptions, window: Arc<MoveWindow>) -> Self {
+        IndexFeeder {
+            builder: IndexBuilder::new(opts, caps_of(opts)),
+            window,
+            buf: Vec::new(),
+            buf_moves: 0,
+            lead_sent: false,
+            end: None,
+            published: 0,
+        }
+    }
+
+    /// Whether the planner still reads the program (it stops early on a failed write).
+    pub fn wanted(&self) -> bool {
+        self.window.wanted()
+    }
+
+    /// Takes the next block of the program.
+    pub fn push(&mut self, block: Block) {
+        self.buf_moves += usize::from(matches!(block, Block::Move(_)));
+        self.buf.push(block);
+        if self.buf_moves > FEED_BATCH_MOVES {
+            self.index_buffered(false);
+        }
+    }
+
+    /// Indexes the buffered blocks (all of them at the end, else up to the last move,
+    /// which stays as the next batch's first and the joint partner of the one before).
+    fn index_buffered(&mut self, at_end: bool) {
+        let keep_from = if at_end {
+            self.buf.len()
+        } else {
+            self.buf
+                .iter()
+                .rposition(|b| matches!(b, Block::Move(_)))
+                .unwrap_or(self.buf.len())
+        };
+        let segs: Vec<&Segment> = self
+            .buf
+            .iter()
+            .filter_map(|b| match b {
+                Block::Move(m) => Some(&m.segment),
+                Block::Event(_) => None,
+            })
+            .collect();
+        let n = if at_end { segs.len() } else { segs.len() - 1 };
+        let (opts, caps) = (self.builder.opts, self.builder.caps);
+        let lens = crate::par::map(n, PARALLEL_MIN_MOVES, |i| {
+            let joint = segs
+                .get(i + 1)
+                .map(|next| joint_after(segs[i], next, opts, &caps));
+            (move_len(segs[i]), joint)
+        });
+        drop(segs);
+        let rest = self.buf.split_off(keep_from);
+        let mut lens = lens.into_iter();
+        for block in std::mem::replace(&mut self.buf, rest) {
+            match block {
+                Block::Event(e) => self.builder.event(&e.kind),
+                Block::Move(m) => {
+                    let (len, joint) = lens.next().expect("one per move");
+                    self.builder.push_move(&m, len, joint);
+                }
+            }
+        }
+        self.buf_moves = usize::from(!at_end && !self.buf.is_empty());
+        self.publish(at_end);
+    }
+
+    /// Hands the indexed moves (all at the end, else all but the last, whose joint may
+    /// still change) and the rests collected to the window.
+    fn publish(&mut self, all: bool) {
+        let b = &mut self.builder;
+        if !self.lead_sent && (all || !b.moves.is_empty()) {
+            self.window.set_lead(b.lead);
+            self.lead_sent = true;
+        }
+        let n = b.moves.len();
+        let upto = if all { n } else { n.saturating_sub(1) };
+        if let Some(m) = b.moves[..upto].last() {
+            self.end = Some(m.segment.end());
+        }
+        self.published += upto;
+        let moves: Vec<PlanMove> = b.moves.drain(..upto).collect();
+        let known_to = moves.last().map(|m| m.s0 + m.len);
+        self.window
+            .push(moves, std::mem::take(&mut b.rests), known_to);
+    }
+
+    /// The program ended: indexes what is left and closes the window. `start` is where
+    /// the program starts (its end when it has no move).
+    pub fn finish(mut self, start: Vec3) {
+        self.index_buffered(true);
+        self.builder.end();
+        self.publish(true);
+        self.window.finish(Summary {
+            moves: self.published,
+            total_len: self.builder.s,
+            end: self.end.unwrap_or(start),
+        });
+    }
+}
+
 /// A move of a [`PathIndex`]: borrowed from a whole program's index or shared from a
 /// streamed one's window.
 #[derive(Clone, Debug)]
@@ -582,7 +684,7 @@ impl std::ops::Deref for RestRef<'_> {
 /// The state of [`PathIndex::new`] while it walks the program's blocks.
 struct IndexBuilder<'o> {
     opts: &'o PlanOptions,
-    caps: &'o Caps,
+    caps: Caps,
     moves: Vec<PlanMove>,
     /// The stop being collected before the next move (reason, time at rest).
     pending: Option<(StopReason, f64)>,
@@ -594,11 +696,50 @@ struct IndexBuilder<'o> {
     extra_acc: f64,
     rests: Vec<ExtraRest>,
     rest: Option<ExtraRest>,
-    /// Number of the last move indexed.
+    /// Number of the last move indexed, and its joint with the move numbered next.
     prev_no: Option<usize>,
+    prev_joint: Option<After>,
+    /// Number of the next move block (zero-length ones included).
+    move_no: usize,
 }
 
-impl IndexBuilder<'_> {
+impl<'o> IndexBuilder<'o> {
+    fn new(opts: &'o PlanOptions, caps: Caps) -> Self {
+        IndexBuilder {
+            opts,
+            caps,
+            moves: Vec::new(),
+            pending: None,
+            lead: None,
+            s: 0.0,
+            prog: None,
+            offset: [0.0; 7],
+            extra_acc: opts.acc_mm_s2.iter().copied().fold(f64::INFINITY, f64::min),
+            rests: Vec::new(),
+            rest: None,
+            prev_no: None,
+            prev_joint: None,
+            move_no: 0,
+        }
+    }
+
+    /// The program ended: the stop collected last ends the last move (or, with no move,
+    /// is the lead), and its rest is kept.
+    fn end(&mut self) {
+        if let Some((_, d)) = self.pending {
+            match self.moves.last_mut() {
+                Some(m) => {
+                    m.after = After::Stop {
+                        reason: StopReason::End,
+                        dwell_s: d,
+                    }
+                }
+                None => self.lead = self.pending,
+            }
+        }
+        self.rests.extend(self.rest.take());
+    }
+
     fn machine(&self, v: ExtraAxes) -> ExtraAxes {
         std::array::from_fn(|i| v[i] + self.offset[i])
     }
@@ -659,13 +800,15 @@ impl IndexBuilder<'_> {
         }
     }
 
-    /// Indexes move number `this_no` (its length and joint in `lens`).
-    fn push_move(&mut self, m: &Move, this_no: usize, lens: &[(f64, Option<After>)]) {
+    /// Indexes the next move, of length `len` and joint `joint` with the move block that
+    /// follows it (if any).
+    fn push_move(&mut self, m: &Move, len: f64, joint: Option<After>) {
+        let this_no = self.move_no;
+        self.move_no += 1;
         let opts = self.opts;
         let extra_start = self.prog.or(m.extra).map(|v| self.machine(v));
         let extra_end = m.extra.map(|v| self.machine(v));
         self.prog = m.extra.or(self.prog);
-        let len = lens[this_no].0;
         if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {
             // A zero-length move that changes the extra axes moves them alone.
             if let (Some(a), Some(b)) = (extra_start, extra_end) {
@@ -688,13 +831,13 @@ impl IndexBuilder<'_> {
                 .filter(|f| *f > 0.0 && f.is_finite())
                 .map_or(opts.feed_mm_s, |f| f.min(opts.feed_mm_s)),
         };
-        let (prev_no, caps) = (self.prev_no, self.caps);
+        let (prev_no, caps) = (self.prev_no, &self.caps);
         if let Some(prev) = self.moves.last_mut() {
             prev.after = match self.pending.take() {
                 Some((reason, dwell_s)) => After::Stop { reason, dwell_s },
                 None => match prev_no {
                     // The joint computed with the lengths.
-                    Some(p) if p + 1 == this_no => lens[p].1.expect("a move follows"),
+                    Some(p) if p + 1 == this_no => self.prev_joint.expect("a move follows"),
                     _ => joint_after(&prev.segment, &m.segment, opts, caps),
                 },
             };
@@ -715,6 +858,7 @@ impl IndexBuilder<'_> {
             },
         });
         self.prev_no = Some(this_no);
+        self.prev_joint = joint;
         self.s += len;
     }
 }

@@ -66,6 +66,8 @@ struct State {
     /// Below these, each reader needs no move (and the interpolator no rest).
     marks: [usize; READERS],
     rest_mark: usize,
+    /// Every rest at a stop at or before this arc length (mm) has been pushed.
+    rests_known_to: f64,
     /// The events before the first move, once known (`Some(None)`: none).
     lead: Option<Option<(StopReason, f64)>>,
     /// Start of the first move (or of the program), once known.
@@ -78,8 +80,8 @@ struct State {
 pub struct MoveWindow {
     state: Mutex<State>,
     cv: Condvar,
-    /// Most moves the indexing side may be ahead of the slower grid reader.
-    pub ahead_cap: usize,
+    /// Most moves the indexing side may be ahead of the grid reader that pulls them.
+    ahead_cap: usize,
 }
 
 /// Default of [`MoveWindow::ahead_cap`]: moves the indexing side may be ahead of the grid
@@ -122,15 +124,16 @@ impl MoveWindow {
     }
 
     /// Rest `k` (the extra-axis motions of the `k`-th stop that has any), waiting until it
-    /// is known; `None` past the last one.
-    pub fn rest(&self, k: usize) -> Option<Arc<ExtraRest>> {
+    /// is pushed or every rest up to arc length `s` is known; `None` when there is no
+    /// rest `k` at or before `s`.
+    pub fn rest(&self, k: usize, s: f64) -> Option<Arc<ExtraRest>> {
         let mut g = self.lock();
         loop {
             assert!(k >= g.rest_base, "rest {k} was released");
             if let Some(r) = g.rests.get(k - g.rest_base) {
                 return Some(r.clone());
             }
-            if g.summary.is_some() {
+            if g.summary.is_some() || g.rests_known_to >= s {
                 return None;
             }
             g = self.wait(g);
@@ -169,13 +172,24 @@ impl MoveWindow {
     }
 
     /// Appends finished moves and rests, waiting while the indexing side is more than
-    /// [`MoveWindow::ahead_cap`] moves ahead of the grid readers.
-    pub fn push(&self, moves: impl IntoIterator<Item = PlanMove>, rests: Vec<ExtraRest>) {
+    /// `ahead_cap` moves ahead of the grid reader that pulls them (the producer, which
+/// waits for moves with a batch half filled while the consumer waits for that batch: the
+/// window must not wait for the consumer).
+    /// `known_to`: every rest at or before this arc length is among those pushed so far.
+    pub fn push(
+        &self,
+        moves: impl IntoIterator<Item = PlanMove>,
+        rests: Vec<ExtraRest>,
+        known_to: Option<f64>,
+    ) {
         let mut g = self.lock();
         loop {
-            let grid_mark = g.marks[0].min(g.marks[1]);
-            if g.base + g.moves.len() < grid_mark.saturating_add(self.ahead_cap) {
-                break;
+            // The grid reader that pulls the moves: the producer, or the consumer when it
+            // computes the grid itself (a reader that stopped holds nothing back).
+            let pull = g.marks[..2].iter().copied().filter(|&m| m != usize::MAX).max();
+            match pull {
+                Some(m) if g.base + g.moves.len() >= m.saturating_add(self.ahead_cap) => {}
+                _ => break,
             }
             g = self.wait(g);
         }
@@ -186,6 +200,9 @@ impl MoveWindow {
             g.moves.push_back(Arc::new(m));
         }
         g.rests.extend(rests.into_iter().map(Arc::new));
+        if let Some(s) = known_to {
+            g.rests_known_to = g.rests_known_to.max(s);
+        }
         drop(g);
         self.cv.notify_all();
     }
@@ -250,5 +267,10 @@ impl MoveWindow {
     /// `reader` does not read this window at all (its mark no longer holds moves).
     pub fn not_reading(&self, reader: Reader) {
         self.release(reader, usize::MAX);
+    }
+
+    /// Whether some reader still reads the moves (the planner has not stopped).
+    pub fn wanted(&self) -> bool {
+        self.lock().marks[1..].iter().any(|&m| m != usize::MAX)
     }
 }

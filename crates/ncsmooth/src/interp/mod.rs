@@ -67,7 +67,7 @@ mod setpoints;
 mod sink;
 
 pub use run::{
-    execute, execute_into, AxisReport, ExtraAxisReport, PlanError, PlanReport, StageTimes,
+    execute, execute_into, execute_streamed, AxisReport, ExtraAxisReport, PlanError, PlanReport, StageTimes,
 };
 pub use setpoints::{
     printed, ExtraFdMeter, FdMeter, FdStats, Jump, Setpoint, SetpointWriter, FEED_DECIMALS,

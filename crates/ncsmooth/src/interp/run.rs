@@ -27,7 +27,8 @@
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
 use super::sink::{Measured, SetpointSink};
 use super::{InterpOptions, InterpStats, Interpolator};
-use crate::feed::grid::RestRef;
+use crate::feed::grid::{IndexFeeder, RestRef};
+use crate::feed::window::{MoveWindow, Reader};
 use crate::feed::{
     plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
     StopReason, PRINT_RESOLUTION_MM,
@@ -362,10 +363,10 @@ impl<'i, 'p> Emitter<'i, 'p> {
     /// `begin`. Samples queued before belong to the motion before and are written first.
     fn rest_at(&mut self, s: f64, begin: f64) {
         self.flush();
-        let mut next = self.index.rest(self.next_rest);
+        let mut next = self.index.rest(self.next_rest, s);
         while next.as_ref().is_some_and(|r| r.s < s) {
             self.next_rest += 1;
-            next = self.index.rest(self.next_rest);
+            next = self.index.rest(self.next_rest, s);
         }
         self.rest = match next {
             Some(r) if r.s == s => {
@@ -485,14 +486,86 @@ pub fn execute_into<S: SetpointSink + Send>(
     };
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
+    run_index(&index, popts, iopts, sink, clock, index_s)
+}
+
+/// Plans a program that arrives block by block, in memory bounded by what the planner's
+/// readers still need ([`crate::feed::window`]): `feed` runs on a thread of its own and
+/// hands every block of the program, in order, to the [`IndexFeeder`] it is given
+/// (stopping early when [`IndexFeeder::wanted`] turns false); planning, interpolation and
+/// the `sink` work as in [`execute_into`], while it feeds. `start` is where the program
+/// starts and `extra_axes_mask` the extra axes it uses (the setpoints' columns, needed
+/// before the first row). Jerk mode plans with `popts.jerk_split`, or the default split
+/// when it is `None` (choose one from the program's first blocks with
+/// [`crate::feed::jerk::fastest_split`]). The setpoints equal those of [`execute_into`] on
+/// the same blocks. Returns the planning result and `feed`'s.
+pub fn execute_streamed<S, E>(
+    start: crate::geom::Vec3,
+    extra_axes_mask: u8,
+    popts: &PlanOptions,
+    iopts: &InterpOptions,
+    sink: S,
+    feed: impl FnOnce(&mut IndexFeeder<'_>) -> Result<(), E> + Send,
+) -> (Result<(PlanReport, S), PlanError>, Result<(), E>)
+where
+    S: SetpointSink + Send,
+    E: Send,
+{
+    if let Err(e) = popts.validate() {
+        return (Err(PlanError::Options(e)), Ok(()));
+    }
+    let clock = Instant::now();
+    let window = std::sync::Arc::new(MoveWindow::default());
+    let index = PathIndex::streamed(window.clone(), start, extra_axes_mask);
+    std::thread::scope(|scope| {
+        let feeding = scope.spawn(|| {
+            let mut feeder = IndexFeeder::new(popts, window.clone());
+            let r = feed(&mut feeder);
+            feeder.finish(start);
+            r
+        });
+        let planned = run_index(&index, popts, iopts, sink, clock, 0.0);
+        let fed = feeding
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (planned, fed)
+    })
+}
+
+/// Plans and interpolates `index` into `sink` (see [`execute_into`]); `index_s` is the
+/// time spent indexing before, `clock` started with the run.
+fn run_index<S: SetpointSink + Send>(
+    index: &PathIndex,
+    popts: &PlanOptions,
+    iopts: &InterpOptions,
+    sink: S,
+    clock: Instant,
+    index_s: f64,
+) -> Result<(PlanReport, S), PlanError> {
+    let result = run_index_inner(index, popts, iopts, sink, clock, index_s);
+    // Nothing more is read: a feeder waiting for room goes on (and learns it is not
+    // wanted).
+    index.not_reading(Reader::GridConsumer);
+    index.not_reading(Reader::Interpolator);
+    result
+}
+
+fn run_index_inner<S: SetpointSink + Send>(
+    index: &PathIndex,
+    popts: &PlanOptions,
+    iopts: &InterpOptions,
+    sink: S,
+    clock: Instant,
+    index_s: f64,
+) -> Result<(PlanReport, S), PlanError> {
     let period = popts.period_s;
     let mut writer = Measured::new(sink);
     writer.begin(index.extra_axes_mask).map_err(PlanError::Io)?;
     let (out_tx, out_rx) = std::sync::mpsc::sync_channel(EMIT_QUEUE_BATCHES);
     let mut emitter = Emitter {
-        interp: Interpolator::new(&index, *iopts),
+        interp: Interpolator::new(index, *iopts),
         out: Some(out_tx),
-        index: &index,
+        index,
         next_rest: 0,
         rest: None,
         batch: Vec::with_capacity(EMIT_BATCH),
@@ -511,7 +584,7 @@ pub fn execute_into<S: SetpointSink + Send>(
             emitter.out = None;
             emitter
         });
-        let planning = plan_samples(&index, popts, &mut em);
+        let planning = plan_samples(index, popts, &mut em);
         em.flush();
         drop(em);
         let emitter = worker

@@ -930,3 +930,104 @@ proptest! {
         prop_assert!(rep.limits_held, "{:?}", rep.axes);
     }
 }
+
+/// A program of more than two feeder batches: a spiral of short lines with arcs, dwells,
+/// an event, a zero-length move, rapids and extruder moves with resets and retractions.
+fn long_mixed_program() -> Toolpath {
+    use crate::path::{Event, EventKind};
+    let e = |v: f64| [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, v];
+    let mut tp = Toolpath::new(Vec3::ZERO);
+    tp.extra_axes_mask = 1 << 6;
+    let event = |kind| Event {
+        line: 1,
+        kind,
+        text: String::new(),
+    };
+    let mut p = Vec3::ZERO;
+    let mut e_val = 0.0;
+    let n = 2 * crate::feed::grid::FEED_BATCH_MOVES + 1500;
+    for k in 0..n {
+        let a = k as f64 * 0.01;
+        let r = 5.0 + 0.002 * k as f64;
+        let q = Vec3::new(r * a.cos(), r * a.sin(), 0.0);
+        let mut m = if k % 1000 == 500 {
+            Move::rapid(Line::new(p, q), k as u32)
+        } else {
+            Move::feed(Line::new(p, q), Some(40.0), k as u32)
+        };
+        e_val += 0.01;
+        m.extra = Some(e(e_val));
+        tp.push_move(m);
+        if k % 997 == 0 {
+            tp.push_event(event(EventKind::Dwell(0.01)));
+        }
+        if k % 1499 == 3 {
+            tp.push_event(event(EventKind::ExtraMove {
+                to: e(e_val - 1.0),
+                feed_per_s: Some(30.0),
+            }));
+            tp.push_event(event(EventKind::ExtraReset { to: e(e_val) }));
+        }
+        if k == 4100 {
+            // A zero-length move (dropped by the index) at a batch's edge.
+            let mut z = Move::feed(Line::new(q, q), Some(40.0), k as u32);
+            z.extra = Some(e(e_val));
+            tp.push_move(z);
+        }
+        p = q;
+    }
+    tp
+}
+
+#[test]
+fn streamed_plan_equals_the_whole_plan() {
+    let tp = long_mixed_program();
+    let iopts = InterpOptions::default();
+    for jerk in [None, Some([5000.0; 3])] {
+        let popts = PlanOptions {
+            jerk_mm_s3: jerk,
+            jerk_split: jerk.map(|_| crate::feed::jerk::JerkSplit::DEFAULT),
+            ..Default::default()
+        };
+        let (whole_rep, whole): (_, Vec<Setpoint>) =
+            execute_into(&tp, &popts, &iopts, Vec::new()).unwrap();
+        let (planned, fed) = execute_streamed(
+            tp.start,
+            tp.extra_axes_mask,
+            &popts,
+            &iopts,
+            Vec::<Setpoint>::new(),
+            |f| {
+                for b in &tp.blocks {
+                    f.push(b.clone());
+                }
+                Ok::<(), ()>(())
+            },
+        );
+        fed.unwrap();
+        let (rep, rows) = planned.unwrap();
+        assert_eq!(rows.len(), whole.len());
+        assert!(rows == whole, "jerk {jerk:?}: the streamed setpoints differ");
+        assert_eq!(rep.moves, whole_rep.moves);
+        assert_eq!(rep.path_length_mm, whole_rep.path_length_mm);
+        assert_eq!(rep.exact_stops, whole_rep.exact_stops);
+        assert!(rep.limits_held);
+    }
+}
+
+#[test]
+fn streamed_plan_of_nothing_is_one_row() {
+    let (planned, fed) = execute_streamed(
+        Vec3::new(1.0, 2.0, 3.0),
+        0,
+        &PlanOptions::default(),
+        &InterpOptions::default(),
+        Vec::<Setpoint>::new(),
+        |_| Ok::<(), ()>(()),
+    );
+    fed.unwrap();
+    let (rep, rows) = planned.unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].p, Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(rep.moves, 0);
+}
