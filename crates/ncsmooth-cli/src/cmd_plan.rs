@@ -21,8 +21,10 @@ use anyhow::Result;
 use clap::{Args, ValueEnum};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
+use crate::plan_stream::StreamedInput;
 use ncsmooth::interp::{
-    execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointWriter,
+    execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink,
+    SetpointWriter,
 };
 use ncsmooth::path::{Move, MoveKind, Toolpath};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};
@@ -230,19 +232,51 @@ fn write_samples(out: &mut OutputFile, tp: &Toolpath, ds: f64) -> Result<()> {
 /// lower of their programmed F and `--feed`). Acceleration, stops, dwells and the other
 /// limits only add time.
 fn min_cycle_time_s(tp: &Toolpath, popts: &PlanOptions) -> f64 {
-    let rapid = tp.length(MoveKind::Rapid, ESTIMATE_ACCURACY_MM) / popts.rapid();
-    let feed: f64 = tp
-        .moves()
-        .filter(|m| m.kind == MoveKind::Feed)
-        .map(|m| {
-            let cap = m
-                .feed_mm_s
-                .filter(|f| *f > 0.0 && f.is_finite())
-                .map_or(popts.feed_mm_s, |f| f.min(popts.feed_mm_s));
-            m.segment.arclen(ESTIMATE_ACCURACY_MM) / cap
-        })
-        .sum();
-    rapid + feed
+    tp.moves().map(|m| move_floor_s(m, popts)).sum()
+}
+
+/// The least time (s) move `m` takes under `popts`: its length at its speed cap (see
+/// [`min_cycle_time_s`]).
+pub(crate) fn move_floor_s(m: &Move, popts: &PlanOptions) -> f64 {
+    let cap = match m.kind {
+        MoveKind::Rapid => popts.rapid(),
+        MoveKind::Feed => m
+            .feed_mm_s
+            .filter(|f| *f > 0.0 && f.is_finite())
+            .map_or(popts.feed_mm_s, |f| f.min(popts.feed_mm_s)),
+    };
+    m.segment.arclen(ESTIMATE_ACCURACY_MM) / cap
+}
+
+/// Where `plan` takes its path from: a program held whole (smoothed at once), or a file
+/// read, smoothed and planned a part at a time ([`crate::plan_stream`]).
+enum Source<'o> {
+    Whole(Smoothed),
+    Streamed(StreamedInput<'o>),
+}
+
+impl Source<'_> {
+    /// Plans into `sink`: the outer error is the input's, the inner the plan's.
+    fn plan<S: SetpointSink + Send>(
+        &mut self,
+        popts: &PlanOptions,
+        iopts: &InterpOptions,
+        sink: S,
+        max_rows: Option<u64>,
+    ) -> Result<Result<(PlanReport, S), PlanError>> {
+        match self {
+            Source::Whole(s) => Ok(execute_into(&s.toolpath, popts, iopts, sink)),
+            Source::Streamed(i) => i.plan(popts, iopts, sink, max_rows),
+        }
+    }
+
+    /// What smoothing did.
+    fn report(&self) -> SmoothReport {
+        match self {
+            Source::Whole(s) => s.report.clone(),
+            Source::Streamed(i) => i.report(),
+        }
+    }
 }
 
 /// Number of rows the writer lets through before [`RowLimit`] refuses a write: the row
@@ -334,7 +368,7 @@ impl<W: Write> Write for RowLimit<W> {
 /// Plans and interpolates into `out` (CSV) and `plots` (when given) under the row limit;
 /// passing the limit is bad input.
 fn execute_limited<W: Write + Send>(
-    tp: &Toolpath,
+    source: &mut Source<'_>,
     popts: &PlanOptions,
     iopts: &InterpOptions,
     out: W,
@@ -345,7 +379,7 @@ fn execute_limited<W: Write + Send>(
         inner: out,
         lines_left: max_rows.map(lines_allowed),
     };
-    match execute_into(tp, popts, iopts, (SetpointWriter::new(out), plots)) {
+    match source.plan(popts, iopts, (SetpointWriter::new(out), plots), max_rows)? {
         Ok((report, (w, plots))) => Ok((report, w.into_inner()?.inner, plots)),
         Err(PlanError::Io(e))
             if e.get_ref()
@@ -438,6 +472,53 @@ fn page_html(
     report::render_page(&page).0
 }
 
+/// What `plan` does with a whole smoothed program before planning it: the path samples,
+/// and the lower bound on the cycle time, against `--max-rows` (refused up front) and
+/// the size of the output (announced).
+fn whole_checks(
+    a: &PlanArgs,
+    ui: Ui,
+    popts: &PlanOptions,
+    smoothed: &Smoothed,
+    samples_out: &mut Option<OutputFile>,
+) -> Result<()> {
+    if let Some(out) = samples_out {
+        if a.sample_ds.is_nan() || a.sample_ds <= 0.0 {
+            return Err(io::BadInput("--sample-ds must be positive".into()).into());
+        }
+        write_samples(out, &smoothed.toolpath, a.sample_ds)?;
+    }
+    // Every row is a period of the cycle, which cannot be shorter than the path at its
+    // speed caps: refuse or announce a huge output before producing any of it.
+    let min_cycle_s = min_cycle_time_s(&smoothed.toolpath, popts);
+    // Truncated (not the row at t = 0 added): a margin of one row for rounding.
+    let min_rows = (min_cycle_s / popts.period_s) as u64;
+    if let Some(max) = a.max_rows.filter(|&max| min_rows > max) {
+        return Err(io::BadInput(format!(
+            "the cycle takes at least {min_cycle_s:.3} s (the path at its speed caps), so at \
+             least {min_rows} setpoint rows at --period {:?} s, more than --max-rows {max}; \
+             nothing written",
+            a.period
+        ))
+        .into());
+    }
+    let min_bytes = min_rows.saturating_mul(TYPICAL_ROW_BYTES);
+    if min_bytes > LARGE_OUTPUT_BYTES {
+        let fate = if a.setpoints.is_some() {
+            "of setpoint CSV to write"
+        } else {
+            "of setpoints to compute (not written)"
+        };
+        ui.status(format!(
+            "note: the cycle takes at least {min_cycle_s:.3} s: at least {min_rows} setpoint \
+             rows at --period {:?} s, about {:.1} GB {fate} (--max-rows bounds it)",
+            a.period,
+            min_bytes as f64 / 1e9
+        ));
+    }
+    Ok(())
+}
+
 /// Runs `plan`.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let outputs: Vec<(&str, &Path)> = [
@@ -453,13 +534,29 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     io::check_outputs(input, &outputs)?;
     check_period(a.period)?;
     let t0 = Instant::now();
-    let (toolpath, name) = if a.file == BUILTIN_BUTTERFLY {
-        (builtin_butterfly(), a.file.clone())
+    let method: Method = a.method.into();
+    // A file is read, smoothed and planned a part at a time unless an output needs the
+    // whole path (the page, the path samples) or it comes from stdin.
+    let streamed = a.file != BUILTIN_BUTTERFLY
+        && a.file != "-"
+        && a.report_html.is_none()
+        && a.path_samples.is_none();
+    let parse_opts = ncsmooth_gcode::ParseOptions::default();
+    let name = if a.file == BUILTIN_BUTTERFLY {
+        a.file.clone()
     } else {
-        (
-            load(&a.file)?.program.toolpath,
-            io::display_name(&a.file).to_string(),
-        )
+        io::display_name(&a.file).to_string()
+    };
+    let mut streamed_input = None;
+    let toolpath = if a.file == BUILTIN_BUTTERFLY {
+        Some(builtin_butterfly())
+    } else if streamed {
+        let input =
+            StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol)?;
+        streamed_input = Some(input);
+        None
+    } else {
+        Some(load(&a.file)?.program.toolpath)
     };
     let parse_s = t0.elapsed().as_secs_f64();
     // Every output is opened before the work (a bad directory fails at once) and moved into
@@ -503,53 +600,32 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         arc_correction: !a.no_arc_correction,
     };
     let t1 = Instant::now();
-    let method: Method = a.method.into();
-    let smoothed = smooth_for_plan(&toolpath, method, a.tol)?;
-    // The program is kept only for the page (its path and the tolerance band).
-    let program = a.report_html.is_some().then_some(toolpath);
-    let smooth_s = t1.elapsed().as_secs_f64();
-    if let Some(out) = &mut samples_out {
-        if a.sample_ds.is_nan() || a.sample_ds <= 0.0 {
-            return Err(io::BadInput("--sample-ds must be positive".into()).into());
+    let (mut source, program) = match (toolpath, streamed_input) {
+        (Some(toolpath), _) => {
+            let smoothed = smooth_for_plan(&toolpath, method, a.tol)?;
+            // The program is kept only for the page (its path and the tolerance band).
+            let program = a.report_html.is_some().then_some(toolpath);
+            (Source::Whole(smoothed), program)
         }
-        write_samples(out, &smoothed.toolpath, a.sample_ds)?;
-    }
-    // Every row is a period of the cycle, which cannot be shorter than the path at its
-    // speed caps: refuse or announce a huge output before producing any of it.
-    let min_cycle_s = min_cycle_time_s(&smoothed.toolpath, &popts);
-    // Truncated (not the row at t = 0 added): a margin of one row for rounding.
-    let min_rows = (min_cycle_s / popts.period_s) as u64;
-    if let Some(max) = a.max_rows.filter(|&max| min_rows > max) {
-        return Err(io::BadInput(format!(
-            "the cycle takes at least {min_cycle_s:.3} s (the path at its speed caps), so at \
-             least {min_rows} setpoint rows at --period {:?} s, more than --max-rows {max}; \
-             nothing written",
-            a.period
-        ))
-        .into());
-    }
-    let min_bytes = min_rows.saturating_mul(TYPICAL_ROW_BYTES);
-    if min_bytes > LARGE_OUTPUT_BYTES {
-        let fate = if a.setpoints.is_some() {
-            "of setpoint CSV to write"
-        } else {
-            "of setpoints to compute (not written)"
-        };
-        ui.status(format!(
-            "note: the cycle takes at least {min_cycle_s:.3} s: at least {min_rows} setpoint \
-             rows at --period {:?} s, about {:.1} GB {fate} (--max-rows bounds it)",
-            a.period,
-            min_bytes as f64 / 1e9
-        ));
-    }
-    let tp = &smoothed.toolpath;
+        (None, Some(input)) => (Source::Streamed(input), None),
+        (None, None) => unreachable!("a file is loaded or streamed"),
+    };
+    let smooth_s = t1.elapsed().as_secs_f64();
+    let popts = match &source {
+        Source::Whole(smoothed) => {
+            whole_checks(&a, ui, &popts, smoothed, &mut samples_out)?;
+            popts
+        }
+        // The jerk split of the first blocks; --max-rows is checked as the moves arrive.
+        Source::Streamed(input) => input.tuned(&popts),
+    };
     let max = a.max_rows;
     let plots = program.is_some().then(PlotSink::default);
     let pb = progress::spinner(ui, "planning and interpolating");
     let (report, setpoints_out, plots) = match (setpoints_out, &a.setpoints) {
         (Some(f), _) => {
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, f);
-            let (rep, w, plots) = execute_limited(tp, &popts, &iopts, w, max, plots)?;
+            let (rep, w, plots) = execute_limited(&mut source, &popts, &iopts, w, max, plots)?;
             (
                 rep,
                 Some(w.into_inner().map_err(|e| e.into_error())?),
@@ -559,11 +635,11 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => {
             // Unlocked: the setpoints are written from the planner's second thread.
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, std::io::stdout());
-            let (rep, _, plots) = execute_limited(tp, &popts, &iopts, w, max, plots)?;
+            let (rep, _, plots) = execute_limited(&mut source, &popts, &iopts, w, max, plots)?;
             (rep, None, plots)
         }
         (None, None) => {
-            let (rep, _, plots) = execute_limited(tp, &popts, &iopts, std::io::sink(), max, plots)?;
+            let (rep, _, plots) = execute_limited(&mut source, &popts, &iopts, std::io::sink(), max, plots)?;
             (rep, None, plots)
         }
     };
@@ -582,7 +658,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let run = PlanRunReport {
         input: name.clone(),
         method: method.name().to_string(),
-        smoothing: smoothed.report,
+        smoothing: source.report(),
         parse_s,
         smooth_s,
         end_to_end_real_time_factor: report.cycle_time_s / total,
@@ -594,7 +670,9 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => io::print_stdout(json.as_bytes())?,
         (None, None) => {}
     }
-    if let (Some(f), Some(program), Some(plots)) = (&mut html_out, &program, plots) {
+    if let (Some(f), Some(program), Some(plots), Source::Whole(smoothed)) =
+        (&mut html_out, &program, plots, source)
+    {
         let pb = progress::spinner(ui, "measuring the path for the page");
         let html = page_html(
             &run,

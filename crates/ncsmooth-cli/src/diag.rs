@@ -30,3 +30,34 @@ pub fn report_parse_error(err: &ParseError, src: &[u8]) {
         eprintln!("error: {msg}");
     }
 }
+
+/// As [`report_parse_error`], for a program read from `path` a part at a time: only the
+/// lines up to the error's are read again (the label spans the error's text from its
+/// column, on that line).
+pub fn report_parse_error_at_line(err: &ParseError, path: &std::path::Path) {
+    use std::io::BufRead;
+    let line_no = err.line.max(1) as usize;
+    let text = std::fs::File::open(path).ok().and_then(|f| {
+        std::io::BufReader::new(f)
+            .split(b'\n')
+            .nth(line_no - 1)
+            .and_then(|l| l.ok())
+    });
+    let Some(line) = text else {
+        eprintln!("error: {}:{}:{}: {}", err.file, err.line, err.column, err.kind);
+        return;
+    };
+    // The earlier lines as empty ones keep the line number; the range is rebuilt from the
+    // column (in characters) and the error's length.
+    let line = String::from_utf8_lossy(&line).trim_end_matches('\r').to_string();
+    let col = (err.column.max(1) as usize - 1).min(line.chars().count());
+    let mut src = "\n".repeat(line_no - 1).into_bytes();
+    let start = src.len() + line.char_indices().nth(col).map_or(line.len(), |(b, _)| b);
+    src.extend_from_slice(line.as_bytes());
+    let len = err.byte_range.len().max(1);
+    let shifted = ParseError {
+        byte_range: start..(start + len).min(src.len()).max(start),
+        ..err.clone()
+    };
+    report_parse_error(&shifted, &src);
+}

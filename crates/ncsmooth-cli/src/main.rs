@@ -14,6 +14,7 @@ mod cmd_smooth;
 mod demo;
 mod diag;
 mod io;
+mod plan_stream;
 mod progress;
 mod report;
 
