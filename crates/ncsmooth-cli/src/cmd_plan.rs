@@ -1,6 +1,8 @@
 //! `ncsmooth plan`: smooth a program (any method; `none` plans it as written), plan the
 //! feed under per-axis limits and write setpoints at a fixed period, streamed to the CSV
-//! (never collected), with a JSON report of what was measured on the written rows.
+//! (never collected), with a JSON report of what was measured on the written rows. A
+//! file is read, smoothed and planned a part at a time ([`crate::plan_stream`]) unless
+//! an output needs the whole program (`--report-html`, `--path-samples`) or it is stdin.
 //!
 //! The input may also be `builtin:butterfly`: the published butterfly NURBS as one curve
 //! (F 50 mm/s), for planning a smooth curve without a smoothing step.
@@ -14,6 +16,7 @@
 
 use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
+use crate::plan_stream::StreamedInput;
 use crate::report::series::PlotSink;
 use crate::report::{self, MethodView, PageView, PlotData};
 use crate::{io, load, progress, Ui};
@@ -21,10 +24,8 @@ use anyhow::Result;
 use clap::{Args, ValueEnum};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
-use crate::plan_stream::StreamedInput;
 use ncsmooth::interp::{
-    execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink,
-    SetpointWriter,
+    execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink, SetpointWriter,
 };
 use ncsmooth::path::{Move, MoveKind, Toolpath};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};
@@ -115,9 +116,11 @@ pub struct PlanArgs {
     pub period: f64,
     /// Largest number of setpoint rows the plan may produce (written, printed or only
     /// measured). A plan whose cycle time at the speed caps already needs more is refused
-    /// before planning; one that turns out longer stops when it passes N. Either way the
-    /// run exits 2 and writes no file (setpoints already sent to stdout stay sent).
-    /// [default: no limit; an estimate above 1 GB of CSV is printed to stderr first]
+    /// as soon as that is known (before planning when the program is held whole, as the
+    /// moves arrive when a file is streamed); one that turns out longer stops when it
+    /// passes N. Either way the run exits 2 and writes no file (setpoints already sent to
+    /// stdout stay sent). [default: no limit; an estimate above 1 GB of CSV is printed to
+    /// stderr when known]
     #[arg(long, value_name = "N")]
     pub max_rows: Option<u64>,
     /// Chord error delta (mm) of Wu eq. 21: v <= (2/T) sqrt(delta (2R - delta)).
@@ -171,9 +174,10 @@ pub struct PlanRunReport {
     pub method: String,
     /// What smoothing did.
     pub smoothing: SmoothReport,
-    /// Seconds parsing.
+    /// Seconds parsing (a streamed file: opening it and reading its first blocks; the
+    /// rest is read while planning, inside the plan's stage times).
     pub parse_s: f64,
-    /// Seconds smoothing.
+    /// Seconds smoothing (a streamed file: nothing apart, it is smoothed while planned).
     pub smooth_s: f64,
     /// Planning and interpolation.
     pub plan: PlanReport,
@@ -252,7 +256,7 @@ pub(crate) fn move_floor_s(m: &Move, popts: &PlanOptions) -> f64 {
 /// read, smoothed and planned a part at a time ([`crate::plan_stream`]).
 enum Source<'o> {
     Whole(Smoothed),
-    Streamed(StreamedInput<'o>),
+    Streamed(Box<StreamedInput<'o>>),
 }
 
 impl Source<'_> {
@@ -263,10 +267,11 @@ impl Source<'_> {
         iopts: &InterpOptions,
         sink: S,
         max_rows: Option<u64>,
+        announce: &(dyn Fn(f64) -> bool + Sync),
     ) -> Result<Result<(PlanReport, S), PlanError>> {
         match self {
             Source::Whole(s) => Ok(execute_into(&s.toolpath, popts, iopts, sink)),
-            Source::Streamed(i) => i.plan(popts, iopts, sink, max_rows),
+            Source::Streamed(i) => i.plan(popts, iopts, sink, max_rows, announce),
         }
     }
 
@@ -367,6 +372,7 @@ impl<W: Write> Write for RowLimit<W> {
 
 /// Plans and interpolates into `out` (CSV) and `plots` (when given) under the row limit;
 /// passing the limit is bad input.
+#[allow(clippy::too_many_arguments)]
 fn execute_limited<W: Write + Send>(
     source: &mut Source<'_>,
     popts: &PlanOptions,
@@ -374,12 +380,19 @@ fn execute_limited<W: Write + Send>(
     out: W,
     max_rows: Option<u64>,
     plots: Option<PlotSink>,
+    announce: &(dyn Fn(f64) -> bool + Sync),
 ) -> Result<(PlanReport, W, Option<PlotSink>)> {
     let out = RowLimit {
         inner: out,
         lines_left: max_rows.map(lines_allowed),
     };
-    match source.plan(popts, iopts, (SetpointWriter::new(out), plots), max_rows)? {
+    match source.plan(
+        popts,
+        iopts,
+        (SetpointWriter::new(out), plots),
+        max_rows,
+        announce,
+    )? {
         Ok((report, (w, plots))) => Ok((report, w.into_inner()?.inner, plots)),
         Err(PlanError::Io(e))
             if e.get_ref()
@@ -502,21 +515,32 @@ fn whole_checks(
         ))
         .into());
     }
-    let min_bytes = min_rows.saturating_mul(TYPICAL_ROW_BYTES);
-    if min_bytes > LARGE_OUTPUT_BYTES {
-        let fate = if a.setpoints.is_some() {
-            "of setpoint CSV to write"
-        } else {
-            "of setpoints to compute (not written)"
-        };
-        ui.status(format!(
-            "note: the cycle takes at least {min_cycle_s:.3} s: at least {min_rows} setpoint \
-             rows at --period {:?} s, about {:.1} GB {fate} (--max-rows bounds it)",
-            a.period,
-            min_bytes as f64 / 1e9
-        ));
+    if let Some(note) = huge_output_note(a, min_cycle_s) {
+        ui.status(note);
     }
     Ok(())
+}
+
+/// The note that a plan of at least `min_cycle_s` seconds makes more than
+/// [`LARGE_OUTPUT_BYTES`] of setpoints, if it does.
+pub(crate) fn huge_output_note(a: &PlanArgs, min_cycle_s: f64) -> Option<String> {
+    // Truncated (not the row at t = 0 added): a margin of one row for rounding.
+    let min_rows = (min_cycle_s / a.period) as u64;
+    let min_bytes = min_rows.saturating_mul(TYPICAL_ROW_BYTES);
+    if min_bytes <= LARGE_OUTPUT_BYTES {
+        return None;
+    }
+    let fate = if a.setpoints.is_some() {
+        "of setpoint CSV to write"
+    } else {
+        "of setpoints to compute (not written)"
+    };
+    Some(format!(
+        "note: the cycle takes at least {min_cycle_s:.3} s: at least {min_rows} setpoint \
+         rows at --period {:?} s, about {:.1} GB {fate} (--max-rows bounds it)",
+        a.period,
+        min_bytes as f64 / 1e9
+    ))
 }
 
 /// Runs `plan`.
@@ -551,8 +575,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let toolpath = if a.file == BUILTIN_BUTTERFLY {
         Some(builtin_butterfly())
     } else if streamed {
-        let input =
-            StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol)?;
+        let input = StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol)?;
         streamed_input = Some(input);
         None
     } else {
@@ -607,7 +630,7 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
             let program = a.report_html.is_some().then_some(toolpath);
             (Source::Whole(smoothed), program)
         }
-        (None, Some(input)) => (Source::Streamed(input), None),
+        (None, Some(input)) => (Source::Streamed(Box::new(input)), None),
         (None, None) => unreachable!("a file is loaded or streamed"),
     };
     let smooth_s = t1.elapsed().as_secs_f64();
@@ -620,12 +643,21 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         Source::Streamed(input) => input.tuned(&popts),
     };
     let max = a.max_rows;
+    // A streamed plan learns its lower bound on the cycle time as the moves arrive.
+    let announce = |min_cycle_s: f64| match huge_output_note(&a, min_cycle_s) {
+        Some(note) => {
+            ui.status(note);
+            true
+        }
+        None => false,
+    };
     let plots = program.is_some().then(PlotSink::default);
     let pb = progress::spinner(ui, "planning and interpolating");
     let (report, setpoints_out, plots) = match (setpoints_out, &a.setpoints) {
         (Some(f), _) => {
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, f);
-            let (rep, w, plots) = execute_limited(&mut source, &popts, &iopts, w, max, plots)?;
+            let (rep, w, plots) =
+                execute_limited(&mut source, &popts, &iopts, w, max, plots, &announce)?;
             (
                 rep,
                 Some(w.into_inner().map_err(|e| e.into_error())?),
@@ -635,11 +667,20 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => {
             // Unlocked: the setpoints are written from the planner's second thread.
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, std::io::stdout());
-            let (rep, _, plots) = execute_limited(&mut source, &popts, &iopts, w, max, plots)?;
+            let (rep, _, plots) =
+                execute_limited(&mut source, &popts, &iopts, w, max, plots, &announce)?;
             (rep, None, plots)
         }
         (None, None) => {
-            let (rep, _, plots) = execute_limited(&mut source, &popts, &iopts, std::io::sink(), max, plots)?;
+            let (rep, _, plots) = execute_limited(
+                &mut source,
+                &popts,
+                &iopts,
+                std::io::sink(),
+                max,
+                plots,
+                &announce,
+            )?;
             (rep, None, plots)
         }
     };

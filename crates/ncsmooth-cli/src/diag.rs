@@ -44,12 +44,17 @@ pub fn report_parse_error_at_line(err: &ParseError, path: &std::path::Path) {
             .and_then(|l| l.ok())
     });
     let Some(line) = text else {
-        eprintln!("error: {}:{}:{}: {}", err.file, err.line, err.column, err.kind);
+        eprintln!(
+            "error: {}:{}:{}: {}",
+            err.file, err.line, err.column, err.kind
+        );
         return;
     };
     // The earlier lines as empty ones keep the line number; the range is rebuilt from the
     // column (in characters) and the error's length.
-    let line = String::from_utf8_lossy(&line).trim_end_matches('\r').to_string();
+    let line = String::from_utf8_lossy(&line)
+        .trim_end_matches('\r')
+        .to_string();
     let col = (err.column.max(1) as usize - 1).min(line.chars().count());
     let mut src = "\n".repeat(line_no - 1).into_bytes();
     let start = src.len() + line.char_indices().nth(col).map_or(line.len(), |(b, _)| b);

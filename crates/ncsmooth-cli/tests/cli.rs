@@ -1400,3 +1400,83 @@ fn smooth_as_a_linuxcnc_filter() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("bad.ngc:1:"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A file is planned while it is read (bounded memory); the setpoints equal those of the
+/// program held whole (`--path-samples` needs the whole path), with events, dwells, arcs
+/// and a program long enough for several batches of the planner's feeder.
+#[test]
+fn plan_streams_a_file_to_the_setpoints_of_the_whole_program() {
+    let d = tmpdir("plan-stream");
+    let mut src = String::from("G21 G90 G17\nG0 X0 Y0\nG1 F3000\n");
+    for k in 1..9000 {
+        let a = k as f64 * 0.004;
+        let r = 10.0 + 0.001 * k as f64;
+        src += &format!("X{:.4} Y{:.4}\n", r * a.cos(), r * a.sin());
+        if k % 2500 == 0 {
+            src += "M8\nG4 P0.05\n";
+        }
+    }
+    src += "G2 I-5 J0\nM9\nG0 X0 Y0\nM2\n";
+    let f = write(&d, "spiral.ngc", src.as_bytes());
+    for method in ["none", "bspline"] {
+        let streamed = d.join(format!("{method}-streamed.csv"));
+        let whole = d.join(format!("{method}-whole.csv"));
+        let o = run(&[
+            "plan",
+            f.to_str().unwrap(),
+            "--method",
+            method,
+            "--setpoints",
+            streamed.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = run(&[
+            "plan",
+            f.to_str().unwrap(),
+            "--method",
+            method,
+            "--setpoints",
+            whole.to_str().unwrap(),
+            "--path-samples",
+            d.join("samples.csv").to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (a, b) = (
+            std::fs::read(&streamed).unwrap(),
+            std::fs::read(&whole).unwrap(),
+        );
+        assert!(a.len() > 100_000, "{method}: {} bytes", a.len());
+        assert!(
+            a == b,
+            "{method}: the streamed setpoints differ from the whole program's"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A streamed file that turns bad far into it: exit 2, the error names the line and the
+/// column, and no setpoint file is left.
+#[test]
+fn plan_of_a_file_bad_late_names_the_line_and_writes_nothing() {
+    let d = tmpdir("plan-stream-bad");
+    let mut src = String::from("G21 G90\nG0 X0 Y0\nG1 F3000\n");
+    for k in 1..20000 {
+        src += &format!("X{:.3} Y0\n", k as f64 * 0.01);
+    }
+    src += "G1 X5 Q#\nM2\n";
+    let f = write(&d, "bad.ngc", src.as_bytes());
+    let out = d.join("sp.csv");
+    let o = run(&[
+        "plan",
+        f.to_str().unwrap(),
+        "--method",
+        "bspline",
+        "--setpoints",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bad.ngc:20003:"), "{err}");
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -38,8 +38,9 @@
 //! assert_eq!(rows.last().unwrap().p, pts[20]); // ends exactly on the program's end
 //! ```
 //!
-//! Programs too large to hold are smoothed block by block ([`StreamSmoother`]); setpoints
-//! go to any [`SetpointSink`] (a CSV writer, a `Vec`, a callback).
+//! Programs too large to hold are smoothed block by block ([`StreamSmoother`]) and planned
+//! while they arrive ([`execute_streamed`], in memory bounded by the planner's windows);
+//! setpoints go to any [`SetpointSink`] (a CSV writer, a `Vec`, a callback).
 #![forbid(unsafe_code)]
 
 pub mod decimal;
@@ -56,8 +57,8 @@ pub mod verify;
 pub use feed::PlanOptions;
 pub use geom::{Arc, Line, Segment, Vec3};
 pub use interp::{
-    execute_into, FnSink, InterpOptions, PlanError, PlanReport, Setpoint, SetpointSink,
-    SetpointWriter,
+    execute_into, execute_streamed, FnSink, InterpOptions, PlanError, PlanReport, Setpoint,
+    SetpointSink, SetpointWriter,
 };
 pub use path::{Block, Event, EventKind, Move, MoveKind, Toolpath, Units};
 pub use smooth::stream::{StreamOptions, StreamSmoother};

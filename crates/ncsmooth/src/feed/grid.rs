@@ -71,6 +71,7 @@ use super::limits::{
     g1_joint_cap_x, junction_cap_x, line_acc, point_cap_x, point_cap_x_kappa, Caps, Interval,
     IntervalMid, NEGLIGIBLE,
 };
+use super::window::{MoveWindow, Reader, Summary};
 use super::{PlanOptions, StopReason};
 use crate::geom::{
     arclen_adaptive, curvature_vec_from, ParamCurve, ParamCurveCurvature, ParamCurveDeriv,
@@ -78,7 +79,6 @@ use crate::geom::{
 };
 use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 use crate::verify::{DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG};
-use super::window::{MoveWindow, Reader, Summary};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::Arc;
 

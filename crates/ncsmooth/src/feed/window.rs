@@ -6,7 +6,9 @@
 //! look-ahead's grid consumer and the interpolator. Each tells the window below which
 //! move it needs nothing more ([`MoveWindow::release`]); moves below every reader's mark
 //! are dropped. The indexing side waits ([`MoveWindow::push`]) while it is more than
-//! [`MoveWindow::ahead_cap`] moves ahead of the grid readers. How far the interpolator
+//! [`DEFAULT_AHEAD_MOVES`] moves ahead of the grid reader that pulls them (the producer,
+//! which may wait for moves with a batch half filled while the consumer waits for that
+//! batch: the window must not wait for the consumer). How far the interpolator
 //! trails them is bounded by the planning pipeline itself: the look-ahead window (a few
 //! thousand grid points) and the sample queues between planning and interpolation
 //! (`EMIT_QUEUE_BATCHES` batches of `EMIT_BATCH` periods, 33 s of motion at 1 ms), so at
@@ -84,8 +86,8 @@ pub struct MoveWindow {
     ahead_cap: usize,
 }
 
-/// Default of [`MoveWindow::ahead_cap`]: moves the indexing side may be ahead of the grid
-/// readers (each batch of the grid producer takes 256).
+/// Moves the indexing side may be ahead of the grid reader that pulls them (each batch
+/// of the grid producer takes 256).
 pub const DEFAULT_AHEAD_MOVES: usize = 1 << 14;
 
 impl Default for MoveWindow {
@@ -173,8 +175,8 @@ impl MoveWindow {
 
     /// Appends finished moves and rests, waiting while the indexing side is more than
     /// `ahead_cap` moves ahead of the grid reader that pulls them (the producer, which
-/// waits for moves with a batch half filled while the consumer waits for that batch: the
-/// window must not wait for the consumer).
+    /// waits for moves with a batch half filled while the consumer waits for that batch: the
+    /// window must not wait for the consumer).
     /// `known_to`: every rest at or before this arc length is among those pushed so far.
     pub fn push(
         &self,
@@ -186,7 +188,11 @@ impl MoveWindow {
         loop {
             // The grid reader that pulls the moves: the producer, or the consumer when it
             // computes the grid itself (a reader that stopped holds nothing back).
-            let pull = g.marks[..2].iter().copied().filter(|&m| m != usize::MAX).max();
+            let pull = g.marks[..2]
+                .iter()
+                .copied()
+                .filter(|&m| m != usize::MAX)
+                .max();
             match pull {
                 Some(m) if g.base + g.moves.len() >= m.saturating_add(self.ahead_cap) => {}
                 _ => break,

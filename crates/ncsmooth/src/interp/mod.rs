@@ -67,7 +67,8 @@ mod setpoints;
 mod sink;
 
 pub use run::{
-    execute, execute_into, execute_streamed, AxisReport, ExtraAxisReport, PlanError, PlanReport, StageTimes,
+    execute, execute_into, execute_streamed, AxisReport, ExtraAxisReport, PlanError, PlanReport,
+    StageTimes,
 };
 pub use setpoints::{
     printed, ExtraFdMeter, FdMeter, FdStats, Jump, Setpoint, SetpointWriter, FEED_DECIMALS,
@@ -354,9 +355,7 @@ impl<'p> Interpolator<'p> {
     /// At the start of the program.
     pub fn new(index: &'p PathIndex, opts: InterpOptions) -> Self {
         let first = index.get(0);
-        let p = first
-            .as_ref()
-            .map_or(index.start, |m| m.segment.start());
+        let p = first.as_ref().map_or(index.start, |m| m.segment.start());
         Interpolator {
             index,
             opts,

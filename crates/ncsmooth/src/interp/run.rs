@@ -499,6 +499,43 @@ pub fn execute_into<S: SetpointSink + Send>(
 /// when it is `None` (choose one from the program's first blocks with
 /// [`crate::feed::jerk::fastest_split`]). The setpoints equal those of [`execute_into`] on
 /// the same blocks. Returns the planning result and `feed`'s.
+///
+/// Smoothing and planning a program that is never held whole (here a zig-zag made on the
+/// fly; a G-code file would come from `ncsmooth_gcode::BlockReader`):
+///
+/// ```
+/// use ncsmooth::smooth::{Method, SmoothOptions};
+/// use ncsmooth::{execute_streamed, Block, InterpOptions, Line, Move, PlanOptions};
+/// use ncsmooth::{Setpoint, StreamOptions, StreamSmoother, Vec3};
+///
+/// let p = |k: usize| Vec3::new(k as f64, if k % 2 == 0 { 0.0 } else { 0.5 }, 0.0);
+/// let mut sopts = SmoothOptions::default();
+/// sopts.method = Method::Bspline;
+/// sopts.tol_mm = 0.01;
+/// let mut smoother = StreamSmoother::new(sopts, StreamOptions::default()).unwrap();
+/// let (planned, fed) = execute_streamed(
+///     p(0),
+///     0,
+///     &PlanOptions::default(),
+///     &InterpOptions::default(),
+///     Vec::<Setpoint>::new(),
+///     |feeder| {
+///         let mut out = Vec::new();
+///         for k in 1..=20 {
+///             let m = Move::feed(Line::new(p(k - 1), p(k)), Some(50.0), k as u32);
+///             smoother.push(Block::Move(m), &mut out);
+///             out.drain(..).for_each(|b| feeder.push(b));
+///         }
+///         smoother.finish(&mut out);
+///         out.drain(..).for_each(|b| feeder.push(b));
+///         Ok::<(), ()>(())
+///     },
+/// );
+/// fed.unwrap();
+/// let (report, rows) = planned.unwrap();
+/// assert!(report.limits_held);
+/// assert_eq!(rows.last().unwrap().p, p(20));
+/// ```
 pub fn execute_streamed<S, E>(
     start: crate::geom::Vec3,
     extra_axes_mask: u8,

@@ -1007,7 +1007,10 @@ fn streamed_plan_equals_the_whole_plan() {
         fed.unwrap();
         let (rep, rows) = planned.unwrap();
         assert_eq!(rows.len(), whole.len());
-        assert!(rows == whole, "jerk {jerk:?}: the streamed setpoints differ");
+        assert!(
+            rows == whole,
+            "jerk {jerk:?}: the streamed setpoints differ"
+        );
         assert_eq!(rep.moves, whole_rep.moves);
         assert_eq!(rep.path_length_mm, whole_rep.path_length_mm);
         assert_eq!(rep.exact_stops, whole_rep.exact_stops);
