@@ -23,7 +23,8 @@ use clap::{Args, ValueEnum};
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::stats::PathStats;
-use ncsmooth::verify::{continuity, deviation, Continuity, Deviation};
+use ncsmooth::verify::{continuity, Continuity, Deviation};
+use ncsmooth_gcode::budget::{read_back, read_written, Budget};
 use ncsmooth_gcode::rewrite::{Blend, BlockFloor, Emit};
 use ncsmooth_gcode::{Dialect, RewriteOptions};
 use serde::Serialize;
@@ -441,12 +442,7 @@ pub fn smooth_program(
         return Err(io::BadInput(format!("--chord must be in (0, tol), got {chord}")).into());
     }
     // Inch programs are written in inches: their rounding applies where they are.
-    let rounding = program
-        .stats
-        .units_seen
-        .iter()
-        .map(|&u| ncsmooth_gcode::rewrite::rounding_mm_for(u, decimals))
-        .fold(ncsmooth_gcode::writer::rounding_mm(decimals), f64::max);
+    let rounding = Budget::new(program, tol, chord, decimals, 0.0).rounding_mm;
     // `none` builds no curves, but rounding still moves its points and off-plane arcs are
     // still flattened: the same budget applies.
     // LinuxCNC blends between the written blocks: `G64 P<tol/10> Q0` keeps its blend
@@ -467,7 +463,8 @@ pub fn smooth_program(
         }
     }
     let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
-    let curve_tol = tol - chord - rounding - blend_mm;
+    let budget = Budget::new(program, tol, chord, decimals, blend_mm);
+    let curve_tol = budget.curve_tol_mm();
     // A tolerance eaten by the flattening chord and the printed decimals is an input
     // error, not something to fail on later.
     if (curve_tol <= tol * MIN_CURVE_TOL_SHARE && !compress)
@@ -562,19 +559,15 @@ pub fn smooth_program(
     // reconstruction are part of what the machine will run. In loop mode the loops are
     // measured by their own bound, and the two-sided tolerance on the same text written
     // without them.
-    let read_back = |text: &[u8]| -> Result<ncsmooth::Toolpath> {
-        ncsmooth_gcode::parse_bytes(text, name, &Default::default())
-            .map(|p| p.toolpath)
-            .map_err(|e| anyhow::anyhow!("the written G-code does not read back: {e}"))
-    };
-    let as_written = read_back(&gcode)?;
-    let without = if loop_mode {
-        Some(read_back(&write(&without_loops(&smoothed.toolpath))?)?)
+    let unreadable = |e| anyhow::anyhow!("the written G-code does not read back: {e}");
+    let accuracy = tol * VERIFY_ACCURACY_SHARE;
+    let (as_written, dev) = if loop_mode {
+        let text = write(&without_loops(&smoothed.toolpath))?;
+        let (_, dev) = read_back(&text, name, &program.toolpath, accuracy).map_err(unreadable)?;
+        (read_written(&gcode, name).map_err(unreadable)?, dev)
     } else {
-        None
+        read_back(&gcode, name, &program.toolpath, accuracy).map_err(unreadable)?
     };
-    let written = without.as_ref().unwrap_or(&as_written);
-    let dev = deviation(written, &program.toolpath, tol * VERIFY_ACCURACY_SHARE);
     let blocks = BlockReport::of(src, &program.toolpath, &gcode, &as_written, dialect);
     let loops_ok = match (loops, loop_size) {
         (Some(l), Some(size)) => l.within(size),
@@ -598,7 +591,7 @@ pub fn smooth_program(
         }),
         blocks,
         smoothing: smoothed.report.clone(),
-        within_tol: dev.within(tol - blend_mm) && loops_ok,
+        within_tol: budget.holds(&dev) && loops_ok,
         deviation: dev,
         loops,
         continuity: cont,

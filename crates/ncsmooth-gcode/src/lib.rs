@@ -20,32 +20,34 @@
 //! ## Read a program, smooth it, write it
 //!
 //! ```
-//! use ncsmooth::{deviation, smooth, Method, SmoothOptions};
-//! use ncsmooth_gcode::{parse_str, rewrite, ParseOptions, RewriteOptions};
+//! use ncsmooth::{smooth, Method, SmoothOptions};
+//! use ncsmooth_gcode::{parse_str, read_back, rewrite, Budget, ParseOptions, RewriteOptions};
 //!
 //! let src = "G21 G90 G17 (a zig-zag)\nG0 X0 Y0 Z1\nG1 Z0 F600\n\
 //!            G1 X1 Y0.5\nG1 X2 Y0\nG1 X3 Y0.5\nG1 X4 Y0\nM5\nM2\n";
 //! let program = parse_str(src, "zigzag.ngc", &ParseOptions::default()).unwrap();
 //!
 //! // 0.01 mm in all: the curves get what the flattening chord (0.001 mm) and the
-//! // printed decimals (4: up to 0.00009 mm per coordinate) leave.
+//! // printed decimals (4: up to 0.00009 mm per point) leave; no controller blending.
+//! let budget = Budget::new(&program, 0.01, 0.001, 4, 0.0);
 //! let mut opts = SmoothOptions::default();
 //! opts.method = Method::Bspline;
-//! opts.tol_mm = 0.01 - 0.001 - 0.0001;
+//! opts.tol_mm = budget.curve_tol_mm();
 //! let smoothed = smooth(&program.toolpath, &opts).unwrap();
 //! let text = rewrite(src.as_bytes(), &program, &smoothed.toolpath, &RewriteOptions::new(4, 0.001))
 //!     .unwrap();
-//! let text = String::from_utf8(text).unwrap();
 //!
 //! // The comment, the spindle stop and the end are where they were; the corners are curves
-//! // (flattened into short G1 lines) within 0.01 mm of the program, both ways.
-//! assert!(text.starts_with("G21 G90 G17 (a zig-zag)\n") && text.contains("M5\nM2\n"));
-//! let written = parse_str(&text, "out.ngc", &ParseOptions::default()).unwrap();
-//! assert!(written.toolpath.moves().count() > program.toolpath.moves().count());
-//! assert!(deviation(&written.toolpath, &program.toolpath, 1e-6).within(0.01));
+//! // (flattened into short G1 lines) within 0.01 mm of the program, both ways, as read back.
+//! let as_text = String::from_utf8(text.clone()).unwrap();
+//! assert!(as_text.starts_with("G21 G90 G17 (a zig-zag)\n") && as_text.contains("M5\nM2\n"));
+//! let (written, dev) = read_back(&text, "out.ngc", &program.toolpath, 1e-6).unwrap();
+//! assert!(written.moves().count() > program.toolpath.moves().count());
+//! assert!(budget.holds(&dev));
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod budget;
 pub mod canon;
 pub mod chain;
 pub mod dialect;
@@ -58,6 +60,7 @@ pub mod source;
 pub mod stream;
 pub mod writer;
 
+pub use budget::{read_back, Budget};
 pub use stream::BlockReader;
 
 pub use canon::Canon;
