@@ -524,13 +524,14 @@ pub fn lift_short_blocks(
         };
         // (lo, hi, new point): the points strictly between lo and hi are replaced.
         let inner = i >= 2 && i + 1 < n;
+        // Lazily: `i - 2` exists only when `i >= 2`.
         let tries = [
-            inner.then_some((i - 2, i + 1, Some(round(mid)))),
-            (i + 1 < n).then_some((i - 1, i + 1, None)),
-            (i >= 2).then_some((i - 2, i, None)),
-            inner.then_some((i - 2, i + 1, snap)),
-            (i + 1 < n && swaps_left > 0).then_some((i - 1, i + 1, stretch(i - 1, i))),
-            (i >= 2 && swaps_left > 0).then_some((i - 2, i, stretch(i, i - 1))),
+            inner.then(|| (i - 2, i + 1, Some(round(mid)))),
+            (i + 1 < n).then(|| (i - 1, i + 1, None)),
+            (i >= 2).then(|| (i - 2, i, None)),
+            inner.then(|| (i - 2, i + 1, snap)),
+            (i + 1 < n && swaps_left > 0).then(|| (i - 1, i + 1, stretch(i - 1, i))),
+            (i >= 2 && swaps_left > 0).then(|| (i - 2, i, stretch(i, i - 1))),
         ];
         let fit = tries
             .into_iter()

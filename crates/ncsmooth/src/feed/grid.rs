@@ -1252,6 +1252,10 @@ pub struct GridBatch {
 
 /// Moves per message of [`GridGen::produce`].
 pub const GRID_BATCH_MOVES: usize = 256;
+/// Intervals after which a message of [`GridGen::produce`] is sent even with fewer than
+/// [`GRID_BATCH_MOVES`] moves: a long curve has thousands (a NURBS run of the `nurbs`
+/// method), and the queue's memory is in its intervals (about 160 bytes each).
+pub const GRID_BATCH_INTERVALS: usize = 4096;
 /// Messages [`GridGen::produce`] may run ahead of the planner (bounds the memory held).
 pub const GRID_QUEUE_BATCHES: usize = 16;
 
@@ -1309,7 +1313,9 @@ impl<'p> GridGen<'p> {
                 moves: Vec::with_capacity(GRID_BATCH_MOVES),
                 intervals: Vec::with_capacity(room + room / 4),
             };
-            while batch.moves.len() < GRID_BATCH_MOVES {
+            while batch.moves.len() < GRID_BATCH_MOVES
+                && batch.intervals.len() < GRID_BATCH_INTERVALS
+            {
                 self.index.release(Reader::GridProducer, j);
                 let Some(m) = self.index.get(j) else {
                     more = false;
