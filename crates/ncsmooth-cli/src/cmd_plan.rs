@@ -16,7 +16,7 @@
 
 use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
-use crate::plan_stream::StreamedInput;
+use crate::plan_stream::{plan_smoother, StreamedInput};
 use crate::report::series::PlotSink;
 use crate::report::{self, MethodView, PageView, PlotData};
 use crate::{io, load, progress, Ui};
@@ -28,7 +28,7 @@ use ncsmooth::interp::{
     execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink, SetpointWriter,
 };
 use ncsmooth::path::{Move, MoveKind, Toolpath};
-use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};
+use ncsmooth::smooth::{Method, SmoothReport, Smoothed};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -315,15 +315,26 @@ pub(crate) fn check_period(period: f64) -> Result<()> {
 }
 
 /// The smoothing `plan --method M --tol T` plans: the curves built to the whole tolerance
-/// (setpoints are printed to 1e-9 mm: no flattening or rounding budget), shared with
-/// `compare` so both plan the same path.
+/// (setpoints are printed to 1e-9 mm: no flattening or rounding budget), chain by chain
+/// with the streamed plan's window ([`crate::plan_stream::plan_smoother`]), so that a
+/// program held whole (`compare`, `--report-html`, stdin) plans the path a streamed file
+/// does, block for block.
 pub(crate) fn smooth_for_plan(tp: &Toolpath, method: Method, tol: f64) -> Result<Smoothed> {
-    let sopts = SmoothOptions {
-        method,
-        tol_mm: tol,
-        ..Default::default()
+    let mut smoother = plan_smoother(method, tol)?;
+    let mut out = Toolpath {
+        blocks: Vec::with_capacity(tp.blocks.len()),
+        ..Toolpath::new(tp.start)
     };
-    Ok(smooth(tp, &sopts).map_err(|e| io::BadInput(e.to_string()))?)
+    out.units = tp.units;
+    out.extra_axes_mask = tp.extra_axes_mask;
+    for b in &tp.blocks {
+        smoother.push(b.clone(), &mut out.blocks);
+    }
+    smoother.finish(&mut out.blocks);
+    Ok(Smoothed {
+        toolpath: out,
+        report: smoother.report().clone(),
+    })
 }
 
 /// Marks the write error of [`RowLimit`].

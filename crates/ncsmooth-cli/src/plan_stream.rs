@@ -32,6 +32,19 @@ pub const PLAN_WINDOW_MOVES: usize = 4096;
 /// Blocks asked of the reader at a time.
 const READ_BATCH_BLOCKS: usize = 4096;
 
+/// The smoother of `plan` (and of `compare`, which plans the same path): `method` to the
+/// whole tolerance `tol_mm`, chains cut at [`PLAN_WINDOW_MOVES`].
+pub(crate) fn plan_smoother(method: Method, tol_mm: f64) -> Result<StreamSmoother> {
+    let sopts = SmoothOptions {
+        method,
+        tol_mm,
+        ..Default::default()
+    };
+    let mut stream = StreamOptions::default();
+    stream.window_moves = PLAN_WINDOW_MOVES;
+    Ok(StreamSmoother::new(sopts, stream).map_err(|e| io::BadInput(e.to_string()))?)
+}
+
 /// Why feeding stopped early.
 enum FeedStop {
     /// The program is not valid G-code there.
@@ -61,15 +74,7 @@ impl<'o> StreamedInput<'o> {
         tol_mm: f64,
     ) -> Result<Self> {
         let reader = BlockReader::open(path, name, parse).map_err(|e| reported(e, path))?;
-        let sopts = SmoothOptions {
-            method,
-            tol_mm,
-            ..Default::default()
-        };
-        let mut stream = StreamOptions::default();
-        stream.window_moves = PLAN_WINDOW_MOVES;
-        let smoother =
-            StreamSmoother::new(sopts, stream).map_err(|e| io::BadInput(e.to_string()))?;
+        let smoother = plan_smoother(method, tol_mm)?;
         let mut input = StreamedInput {
             reader,
             smoother,

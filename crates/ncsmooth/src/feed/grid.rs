@@ -604,7 +604,8 @@ impl<'o> IndexFeeder<'o> {
             }
         }
         self.buf_moves = usize::from(!at_end && !self.buf.is_empty());
-        self.publish(at_end);
+        // The last move stays: its joint, or at the end the stop after it, may change it.
+        self.publish(false);
     }
 
     /// Hands the indexed moves (all at the end, else all but the last, whose joint may

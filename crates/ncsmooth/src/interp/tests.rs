@@ -976,6 +976,12 @@ fn long_mixed_program() -> Toolpath {
         }
         p = q;
     }
+    // Events after the last move: the stop they make ends the program's last move.
+    tp.push_event(event(EventKind::Dwell(0.25)));
+    tp.push_event(event(EventKind::ExtraMove {
+        to: e(e_val - 2.0),
+        feed_per_s: Some(30.0),
+    }));
     tp
 }
 
