@@ -1,8 +1,9 @@
 //! `plan` of a G-code file in memory that does not grow with the program: the file is
 //! interpreted a batch of blocks at a time ([`BlockReader`]), smoothed chain by chain
 //! ([`StreamSmoother`], a chain longer than its window cut as its module doc says), and
-//! planned and interpolated while it is read ([`execute_streamed`]). The setpoints equal
-//! those of the whole-program path wherever no chain is longer than the smoother's window.
+//! planned and interpolated while it is read ([`execute_streamed`]). A program held whole
+//! (`compare`, `--report-html`, stdin) is smoothed by the same windowed smoother
+//! ([`plan_smoother`]), so the setpoints are the same either way.
 //!
 //! What needs the whole program is done on the way: the jerk split is chosen on the first
 //! [`SPLIT_SEARCH_MAX_BLOCKS`] smoothed blocks (as the whole path does), and `--max-rows`
@@ -25,8 +26,8 @@ use std::path::Path;
 /// about 3.5 kB per move (the run fits), so this bounds most of the memory of a streamed
 /// plan. Measured peak resident memory of `plan --method bspline --setpoints`:
 /// linuxcnc_stellabee1 58.5 MB at 4096 (77.0 at 8192, 48.5 at 2048), a 5e6-line 0.01 mm
-/// spiral 43.1 MB (57.4 at 8192). Programs whose chains are all shorter plan exactly as
-/// when held whole.
+/// spiral 43.1 MB (57.4 at 8192). Programs whose chains are all shorter are smoothed as
+/// `smooth` smooths them.
 pub const PLAN_WINDOW_MOVES: usize = 4096;
 
 /// Blocks asked of the reader at a time.
