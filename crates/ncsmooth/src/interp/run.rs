@@ -556,9 +556,11 @@ where
     let index = PathIndex::streamed(window.clone(), start, extra_axes_mask);
     std::thread::scope(|scope| {
         let feeding = scope.spawn(|| {
+            let mut guard = FinishOnDrop(Some(&window));
             let mut feeder = IndexFeeder::new(popts, window.clone());
             let r = feed(&mut feeder);
             feeder.finish(start);
+            guard.disarm();
             r
         });
         let planned = run_index(&index, popts, iopts, sink, clock, 0.0);
@@ -579,12 +581,44 @@ fn run_index<S: SetpointSink + Send>(
     clock: Instant,
     index_s: f64,
 ) -> Result<(PlanReport, S), PlanError> {
-    let result = run_index_inner(index, popts, iopts, sink, clock, index_s);
-    // Nothing more is read: a feeder waiting for room goes on (and learns it is not
-    // wanted).
-    index.not_reading(Reader::GridConsumer);
-    index.not_reading(Reader::Interpolator);
-    result
+    // However the run ends (a panic in a reader included), nothing more is read: a feeder
+    // waiting for room goes on (and learns it is not wanted) instead of waiting forever.
+    let _done = StopReading(index);
+    run_index_inner(index, popts, iopts, sink, clock, index_s)
+}
+
+/// Tells a streamed index, when dropped, that none of its readers reads any more.
+struct StopReading<'i>(&'i PathIndex);
+
+impl Drop for StopReading<'_> {
+    fn drop(&mut self) {
+        for r in [
+            Reader::GridProducer,
+            Reader::GridConsumer,
+            Reader::Interpolator,
+        ] {
+            self.0.not_reading(r);
+        }
+    }
+}
+
+/// Closes a window when dropped before [`FinishOnDrop::disarm`]: a feed that panics ends
+/// the program for the readers (the panic is raised again when the feeding thread is
+/// joined) instead of leaving them waiting.
+struct FinishOnDrop<'w>(Option<&'w MoveWindow>);
+
+impl FinishOnDrop<'_> {
+    fn disarm(&mut self) {
+        self.0 = None;
+    }
+}
+
+impl Drop for FinishOnDrop<'_> {
+    fn drop(&mut self) {
+        if let Some(w) = self.0 {
+            w.finish(crate::feed::window::Summary::default());
+        }
+    }
 }
 
 fn run_index_inner<S: SetpointSink + Send>(

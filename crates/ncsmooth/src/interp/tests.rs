@@ -1040,3 +1040,33 @@ fn streamed_plan_of_nothing_is_one_row() {
     assert_eq!(rows[0].p, Vec3::new(1.0, 2.0, 3.0));
     assert_eq!(rep.moves, 0);
 }
+
+/// A feed that panics half-way ends the run with that panic (re-raised), not a hang
+/// (checked within a minute, on a thread of its own).
+#[test]
+fn a_streamed_feed_that_panics_does_not_hang() {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let tp = long_mixed_program();
+        let popts = PlanOptions::default();
+        let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            execute_streamed(
+                tp.start,
+                tp.extra_axes_mask,
+                &popts,
+                &InterpOptions::default(),
+                Vec::<Setpoint>::new(),
+                |f| {
+                    for (k, b) in tp.blocks.iter().enumerate() {
+                        assert!(k < 6000, "a feed that fails");
+                        f.push(b.clone());
+                    }
+                    Ok::<(), ()>(())
+                },
+            )
+        }));
+        let _ = tx.send(run.is_err());
+    });
+    let panicked = rx.recv_timeout(std::time::Duration::from_secs(60));
+    assert_eq!(panicked, Ok(true), "the run hung or did not panic");
+}
