@@ -22,7 +22,7 @@ use crate::report::{self, MethodView, PageView, PlotData};
 use crate::{io, load, progress, Ui};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
-use ncsmooth::feed::PlanOptions;
+use ncsmooth::feed::{JerkScheme, PlanOptions};
 use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
 use ncsmooth::interp::{
     execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink, SetpointWriter,
@@ -61,6 +61,15 @@ const TYPICAL_ROW_BYTES: u64 = 63;
 pub const LARGE_OUTPUT_BYTES: u64 = 1_000_000_000;
 /// Accuracy (mm) of the move lengths in the lower bound on the cycle time.
 const ESTIMATE_ACCURACY_MM: f64 = 1e-6;
+
+/// Jerk scheme names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum JerkSchemeArg {
+    /// Trapezoid under jerk caps, averaged over a time window.
+    Filter,
+    /// Setpoints followed period by period under the measured limits.
+    Follow,
+}
 
 /// Interpolation method names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -104,6 +113,12 @@ pub struct PlanArgs {
     /// profile is the trapezoid (linear acceleration).
     #[arg(long)]
     pub jerk: Option<String>,
+    /// How `--jerk` makes its S-curve: `filter` (the trapezoid under caps that hold for
+    /// any motion, averaged over a time window; provable, conservative) or `follow` (the
+    /// setpoints chosen period by period under the limits as measured, below a
+    /// braking-feasible ceiling; near time-optimal on smooth paths, slower to compute).
+    #[arg(long, value_enum, default_value = "filter")]
+    pub jerk_scheme: JerkSchemeArg,
     /// Per-axis velocity limit (mm/s): one value or x,y,z [default: none].
     #[arg(long)]
     pub vaxis: Option<String>,
@@ -615,6 +630,10 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
         chord_error_mm: a.chord_error,
         junction_dev_mm: a.junction_dev,
         jerk_split: None,
+        jerk_scheme: match a.jerk_scheme {
+            JerkSchemeArg::Filter => JerkScheme::Filter,
+            JerkSchemeArg::Follow => JerkScheme::Follow,
+        },
     };
     popts
         .validate()
@@ -699,7 +718,13 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let waived = waivers(&a, &report);
     if let Some(broken) = broken_limits(&report) {
         if waived.is_empty() {
-            anyhow::bail!("the plan does not hold its limits: {broken}; nothing written");
+            let hint = if popts.jerk_scheme == JerkScheme::Follow {
+                " (--jerk-scheme follow samples a stop-to-stop run it cannot follow from the \
+                 trapezoid; --jerk-scheme filter holds the limits by construction)"
+            } else {
+                ""
+            };
+            anyhow::bail!("the plan does not hold its limits: {broken}; nothing written{hint}");
         }
         ui.status(format!(
             "warning: limits exceeded as asked for by {}: {broken}",

@@ -1454,6 +1454,73 @@ fn plan_streams_a_file_to_the_setpoints_of_the_whole_program() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// `--jerk-scheme follow` on a streamed file (rapids, events, a dwell, a full circle,
+/// many moves): the setpoints equal those of the program held whole, the limits hold
+/// (the run exits 0 only then), and the cycle is shorter than the filter's.
+#[test]
+fn plan_follow_scheme_streams_and_holds_the_jerk() {
+    let d = tmpdir("plan-follow");
+    let mut src = String::from("G21 G90 G17\nG0 X10 Y0\nG1 F3000\n");
+    for k in 1..3000 {
+        let a = k as f64 * 0.004;
+        let r = 10.0 + 0.001 * k as f64;
+        src += &format!("X{:.4} Y{:.4}\n", r * a.cos(), r * a.sin());
+        if k % 1000 == 0 {
+            src += "M8\nG4 P0.05\n";
+        }
+    }
+    src += "G2 I-5 J0\nM9\nG0 X0 Y0\nM2\n";
+    let f = write(&d, "spiral.ngc", src.as_bytes());
+    let mut cycle = Vec::new();
+    for (scheme, extra) in [
+        ("follow", None),
+        ("follow", Some("samples.csv")),
+        ("filter", None),
+    ] {
+        let sp = d.join(format!("{scheme}-{}.csv", extra.is_some()));
+        let rep = d.join("rep.json");
+        let mut args = vec![
+            "plan",
+            f.to_str().unwrap(),
+            "--method",
+            "bspline",
+            "--jerk",
+            "5000",
+            "--jerk-scheme",
+            scheme,
+            "--setpoints",
+            sp.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ];
+        let samples = d.join("samples.csv");
+        if extra.is_some() {
+            args.extend(["--path-samples", samples.to_str().unwrap()]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+        assert_eq!(r["plan"]["limits_held"], true);
+        cycle.push(r["plan"]["cycle_time_s"].as_f64().unwrap());
+    }
+    let (a, b) = (
+        std::fs::read(d.join("follow-false.csv")).unwrap(),
+        std::fs::read(d.join("follow-true.csv")).unwrap(),
+    );
+    assert!(
+        a == b,
+        "the streamed setpoints differ from the whole program's"
+    );
+    assert!(
+        cycle[0] < cycle[2],
+        "follow {} filter {}",
+        cycle[0],
+        cycle[2]
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A streamed file that turns bad far into it: exit 2, the error names the line and the
 /// column, and no setpoint file is left.
 #[test]

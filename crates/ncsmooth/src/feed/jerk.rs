@@ -140,8 +140,11 @@
 //! all three off 4.11 s. arc 15.01 s; without the jerk caps 6.46 s: its G1 steps
 //! dominate. A trapezoid plan of the arc path with the step cap alone at the best
 //! sample alignment (`v^2 <= J T / (0.5 |dK_i|)`, the full `J`) takes 7.08 s, a floor
-//! for any planner measured this way. A look-ahead S-curve planner (a local `U` where
-//! the curvature leaves room, no window to wait out) is the next step.
+//! for any planner measured this way. The `follow` scheme
+//! ([`super::JerkScheme::Follow`], `crate::interp`'s follower) chooses the setpoints
+//! themselves under the measured limits, with the coupling term exact: 4.59-4.61 s for
+//! bspline, nurbs and trig at this setting with the program's F raised to 200 mm/s
+//! (1.65 x the acceleration-only TOPP-RA bound, against 2.53-2.55 x here).
 
 use crate::geom::Vec3;
 use crate::path::Toolpath;

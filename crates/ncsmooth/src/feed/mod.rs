@@ -189,6 +189,21 @@ pub struct PlanOptions {
     /// [`jerk::SPLIT_CANDIDATES`] for the path ([`jerk::fastest_split`]); planning
     /// functions given `None` directly use [`jerk::JerkSplit::DEFAULT`].
     pub jerk_split: Option<jerk::JerkSplit>,
+    /// Jerk mode: how the S-curve is made. Default [`JerkScheme::Filter`].
+    pub jerk_scheme: JerkScheme,
+}
+
+/// How jerk mode makes its S-curve.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum JerkScheme {
+    /// The trapezoid under tighter caps, averaged over a time window: provable by
+    /// construction, conservative ([`jerk`]).
+    #[default]
+    Filter,
+    /// The setpoints chosen one period at a time under the limits as measured, below a
+    /// braking-feasible ceiling, with backtracking ([`crate::interp`]'s follower): near
+    /// time-optimal on smooth paths, slower to compute, a run held whole.
+    Follow,
 }
 
 impl Default for PlanOptions {
@@ -203,6 +218,7 @@ impl Default for PlanOptions {
             chord_error_mm: 0.001,
             junction_dev_mm: None,
             jerk_split: None,
+            jerk_scheme: JerkScheme::Filter,
         }
     }
 }
@@ -319,6 +335,10 @@ impl PlanOptions {
     }
     /// The jerk-mode caps, when jerk limiting is asked for (options must be valid).
     pub fn jerk_caps(&self) -> Option<jerk::JerkCaps> {
+        if self.jerk_scheme == JerkScheme::Follow {
+            // The follower plans under a trapezoid ceiling (interp::follow).
+            return None;
+        }
         self.jerk_mm_s3.map(|j| {
             jerk::JerkCaps::with_split(
                 self.acc_mm_s2.map(|a| planned_acc(a, self.period_s)),

@@ -62,6 +62,7 @@
 //! `eta` is recorded on steps longer than [`ETA_MIN_STEP_MM`]: below that the rounding of
 //! the coordinates themselves dominates the ratio.
 
+mod follow;
 mod run;
 mod setpoints;
 mod sink;

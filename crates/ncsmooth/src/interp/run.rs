@@ -24,14 +24,15 @@
 //! longer; a sample whose whole window is at rest is exactly the rest point. The feed
 //! column is the filtered speed.
 
+use super::follow;
 use super::setpoints::{FdStats, Setpoint, SetpointWriter};
 use super::sink::{Measured, SetpointSink};
 use super::{InterpOptions, InterpStats, Interpolator};
 use crate::feed::grid::{IndexFeeder, RestRef};
 use crate::feed::window::{MoveWindow, Reader};
 use crate::feed::{
-    plan_stream, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats, StopCounts,
-    StopReason, PRINT_RESOLUTION_MM,
+    plan_stream, JerkScheme, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats,
+    ProfilePiece, StopCounts, StopReason, PRINT_RESOLUTION_MM,
 };
 use crate::path::{Toolpath, EXTRA_AXIS_NAMES};
 use serde::Serialize;
@@ -475,7 +476,10 @@ pub fn execute_into<S: SetpointSink + Send>(
     let clock = Instant::now();
     // Jerk mode without a given split: the fastest candidate for this path.
     let tuned;
-    let popts = if popts.jerk_mm_s3.is_some() && popts.jerk_split.is_none() {
+    let popts = if popts.jerk_mm_s3.is_some()
+        && popts.jerk_split.is_none()
+        && popts.jerk_scheme == JerkScheme::Filter
+    {
         tuned = PlanOptions {
             jerk_split: Some(crate::feed::jerk::fastest_split(path, popts)),
             ..popts.clone()
@@ -758,6 +762,9 @@ fn run_index_inner<S: SetpointSink + Send>(
 /// Runs the planner over `index` and queues one sample per period (and the rests) on
 /// `em`, through the jerk filter when jerk limiting is on. Returns the planner's stats.
 fn plan_samples(index: &PathIndex, popts: &PlanOptions, em: &mut EmitQueue) -> PlanStats {
+    if let (JerkScheme::Follow, Some(jerk)) = (popts.jerk_scheme, popts.jerk_mm_s3) {
+        return follow_samples(index, popts, jerk, em);
+    }
     let period = popts.period_s;
     let (mut t, mut n) = (0.0f64, 0u64);
     let hold = popts.stop_hold_s();
@@ -830,6 +837,100 @@ fn plan_samples(index: &PathIndex, popts: &PlanOptions, em: &mut EmitQueue) -> P
                 n += 1;
             }
             t = k as f64 * period;
+        }
+    })
+}
+
+/// `v^2` of the trapezoid plan at `s`, from the pieces of a run (sorted by `s0`).
+fn pieces_x(pieces: &[ProfilePiece], s: f64) -> f64 {
+    let i = pieces.partition_point(|p| p.s0 + p.ds < s);
+    pieces.get(i).map_or(0.0, |p| {
+        let f = ((s - p.s0) / p.ds).clamp(0.0, 1.0);
+        p.v0 * p.v0 + (p.v1 * p.v1 - p.v0 * p.v0) * f
+    })
+}
+
+/// The trapezoid's own samples of a run from rest at `s_a` (the follower's fallback).
+fn pieces_samples(pieces: &[ProfilePiece], s_a: f64, s_b: f64, period: f64) -> Vec<f64> {
+    let mut out = vec![s_a];
+    let (mut t, mut n) = (0.0, 1u64);
+    for pc in pieces {
+        while (n as f64) * period < t + pc.dt {
+            out.push(pc.at(n as f64 * period - t).0);
+            n += 1;
+        }
+        t += pc.dt;
+    }
+    out.push(s_b);
+    out
+}
+
+/// The move in which a run starting at `s` moves first, searching on from `j`.
+fn move_at(index: &PathIndex, s: f64, mut j: usize) -> usize {
+    while let Some(m) = index.get(j) {
+        if s < m.s0 + m.len || index.get(j + 1).is_none() {
+            break;
+        }
+        j += 1;
+    }
+    j
+}
+
+/// Jerk mode with the follower ([`JerkScheme::Follow`]): the planner's trapezoid pieces
+/// of each run (stop to stop) are the ceiling of [`follow::follow_run`], whose samples
+/// are queued; stops are held as in the trapezoid mode.
+fn follow_samples(
+    index: &PathIndex,
+    popts: &PlanOptions,
+    jerk: [f64; 3],
+    em: &mut EmitQueue,
+) -> PlanStats {
+    let period = popts.period_s;
+    let (mut t, mut n) = (0.0f64, 0u64);
+    let mut pieces: Vec<ProfilePiece> = Vec::new();
+    let mut start = (0usize, 0.0f64);
+    plan_stream(index, popts, |ev| match ev {
+        PlanEvent::Piece(pc) => pieces.push(pc),
+        PlanEvent::Stop { s, reason, dwell_s } => {
+            // Where the next run starts, looked up while the interpolator still holds the
+            // moves of this one.
+            let next = (move_at(index, s, start.0), s);
+            if s > start.1 && !pieces.is_empty() {
+                let plan_x = |q: f64| pieces_x(&pieces, q);
+                let run = follow::follow_run(index, start, s, popts, jerk, &plan_x)
+                    .unwrap_or_else(|| pieces_samples(&pieces, start.1, s, period));
+                let k0 = (t / period).round() as u64;
+                for (i, &q) in run.iter().enumerate() {
+                    let k = k0 + i as u64;
+                    if k < n {
+                        continue;
+                    }
+                    let before = run[i.saturating_sub(1)];
+                    let after = run[(i + 1).min(run.len() - 1)];
+                    let steps = ((i + 1).min(run.len() - 1) - i.saturating_sub(1)).max(1);
+                    em.push(
+                        k as f64 * period,
+                        q,
+                        (after - before) / (steps as f64 * period),
+                    );
+                    n = k + 1;
+                }
+                t = (k0 + run.len() as u64 - 1) as f64 * period;
+            }
+            pieces.clear();
+            em.rest_at(s, t);
+            let rest_end = t + dwell_s;
+            let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
+            if reason == StopReason::End {
+                k = k.max(n);
+            }
+            let last = if reason == StopReason::End { k + 1 } else { k };
+            while n < last {
+                em.push(n as f64 * period, s, 0.0);
+                n += 1;
+            }
+            t = k as f64 * period;
+            start = next;
         }
     })
 }
