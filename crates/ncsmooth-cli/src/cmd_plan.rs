@@ -92,7 +92,7 @@ pub enum NewtonStop {
 }
 
 /// Arguments of `plan`.
-#[derive(Args, Debug)]
+#[derive(Args, Clone, Debug)]
 pub struct PlanArgs {
     /// G-code file, `-` for stdin, or `builtin:butterfly`.
     pub file: String,
@@ -116,7 +116,8 @@ pub struct PlanArgs {
     /// How `--jerk` makes its S-curve: `filter` (the trapezoid under caps that hold for
     /// any motion, averaged over a time window; provable, conservative) or `follow` (the
     /// setpoints chosen period by period under the limits as measured, below a
-    /// braking-feasible ceiling; near time-optimal on smooth paths, slower to compute).
+    /// braking-feasible ceiling; near time-optimal on smooth paths, slower to compute; a
+    /// file it cannot follow within the limits is planned again with `filter`).
     #[arg(long, value_enum, default_value = "filter")]
     pub jerk_scheme: JerkSchemeArg,
     /// Per-axis velocity limit (mm/s): one value or x,y,z [default: none].
@@ -570,7 +571,39 @@ pub(crate) fn huge_output_note(a: &PlanArgs, min_cycle_s: f64) -> Option<String>
 }
 
 /// Runs `plan`.
+/// `--jerk-scheme follow` gave up on a run: the plan would break the jerk limit.
+#[derive(Debug)]
+struct FollowGaveUp(String);
+
+impl std::fmt::Display for FollowGaveUp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for FollowGaveUp {}
+
+/// Runs `plan`. With `--jerk-scheme follow`, a plan the follower could not finish within
+/// the limits is planned again with the filter scheme (said on stderr; the report's
+/// options give the scheme used), unless setpoints already went to stdout.
 pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
+    let to_stdout = a.setpoints.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    let fallback = (a.jerk_scheme == JerkSchemeArg::Follow && !to_stdout).then(|| PlanArgs {
+        jerk_scheme: JerkSchemeArg::Filter,
+        ..a.clone()
+    });
+    match (run_once(a, ui), fallback) {
+        (Err(e), Some(b)) if e.downcast_ref::<FollowGaveUp>().is_some() => {
+            ui.status(format!(
+                "note: {e}; planning again with --jerk-scheme filter"
+            ));
+            run_once(b, ui)
+        }
+        (r, _) => r,
+    }
+}
+
+fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     let outputs: Vec<(&str, &Path)> = [
         ("--path-samples", &a.path_samples),
         ("--setpoints", &a.setpoints),
@@ -718,13 +751,14 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
     let waived = waivers(&a, &report);
     if let Some(broken) = broken_limits(&report) {
         if waived.is_empty() {
-            let hint = if popts.jerk_scheme == JerkScheme::Follow {
-                " (--jerk-scheme follow samples a stop-to-stop run it cannot follow from the \
-                 trapezoid; --jerk-scheme filter holds the limits by construction)"
-            } else {
-                ""
-            };
-            anyhow::bail!("the plan does not hold its limits: {broken}; nothing written{hint}");
+            if popts.jerk_scheme == JerkScheme::Follow {
+                return Err(FollowGaveUp(format!(
+                    "--jerk-scheme follow gave up on a stop-to-stop run (sampled from the \
+                     trapezoid, it breaks the limits: {broken})"
+                ))
+                .into());
+            }
+            anyhow::bail!("the plan does not hold its limits: {broken}; nothing written");
         }
         ui.status(format!(
             "warning: limits exceeded as asked for by {}: {broken}",

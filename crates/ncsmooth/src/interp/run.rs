@@ -897,7 +897,9 @@ fn follow_samples(
             let next = (move_at(index, s, start.0), s);
             if s > start.1 && !pieces.is_empty() {
                 let plan_x = |q: f64| pieces_x(&pieces, q);
-                let run = follow::follow_run(index, start, s, popts, jerk, &plan_x)
+                let plan_t: f64 = pieces.iter().map(|p| p.dt).sum();
+                let plan_n = (plan_t / period).ceil() as usize;
+                let run = follow::follow_run(index, start, s, popts, jerk, &plan_x, plan_n)
                     .unwrap_or_else(|| pieces_samples(&pieces, start.1, s, period));
                 let k0 = (t / period).round() as u64;
                 for (i, &q) in run.iter().enumerate() {
