@@ -825,20 +825,33 @@ fn plan_samples(index: &PathIndex, popts: &PlanOptions, em: &mut EmitQueue) -> P
             t += pc.dt;
         }
         PlanEvent::Stop { s, reason, dwell_s } => {
-            em.rest_at(s, t);
-            let rest_end = t + dwell_s;
-            let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
-            if reason == StopReason::End {
-                k = k.max(n);
-            }
-            let last = if reason == StopReason::End { k + 1 } else { k };
-            while n < last {
-                em.push(n as f64 * period, s, 0.0);
-                n += 1;
-            }
-            t = k as f64 * period;
+            t = hold_stop(em, (s, reason, dwell_s), t, &mut n, period);
         }
     })
+}
+
+/// Holds a trapezoid-mode stop reached at time `t`: the rest (and dwell) until the next
+/// period boundary, its samples queued from sample `n` on (through the boundary itself at
+/// the end of the program). Returns the time motion resumes.
+fn hold_stop(
+    em: &mut EmitQueue,
+    (s, reason, dwell_s): (f64, StopReason, f64),
+    t: f64,
+    n: &mut u64,
+    period: f64,
+) -> f64 {
+    em.rest_at(s, t);
+    let rest_end = t + dwell_s;
+    let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
+    if reason == StopReason::End {
+        k = k.max(*n);
+    }
+    let last = if reason == StopReason::End { k + 1 } else { k };
+    while *n < last {
+        em.push(*n as f64 * period, s, 0.0);
+        *n += 1;
+    }
+    k as f64 * period
 }
 
 /// `v^2` of the trapezoid plan at `s`, from the pieces of a run (sorted by `s0`).
@@ -920,18 +933,7 @@ fn follow_samples(
                 t = (k0 + run.len() as u64 - 1) as f64 * period;
             }
             pieces.clear();
-            em.rest_at(s, t);
-            let rest_end = t + dwell_s;
-            let mut k = (rest_end / period - PERIOD_ROUND_SLACK).ceil().max(0.0) as u64;
-            if reason == StopReason::End {
-                k = k.max(n);
-            }
-            let last = if reason == StopReason::End { k + 1 } else { k };
-            while n < last {
-                em.push(n as f64 * period, s, 0.0);
-                n += 1;
-            }
-            t = k as f64 * period;
+            t = hold_stop(em, (s, reason, dwell_s), t, &mut n, period);
             start = next;
         }
     })
