@@ -123,8 +123,9 @@ fn without_blend_bounds(input: &Path, out: &Path) -> Result<(), String> {
     std::fs::write(out, kept.join("\n") + "\n").map_err(|e| e.to_string())
 }
 
-/// Times canon_check is run on a pair when rs274 died of a signal (it sometimes dies of a
-/// SIGBUS when two run at once; the same pair then passes).
+/// Times canon_check is run on a pair when rs274 died of a signal. Runs sharing a `HOME`
+/// died of SIGBUS (see [`private_home`], which removes that cause); the retry stays for a
+/// signal from outside.
 const RS274_ATTEMPTS: usize = 4;
 
 /// canon_check's verdict: `Ok(summary)` or `Err(why)`.
@@ -150,18 +151,35 @@ fn rs274_killed(r: &serde_json::Value) -> bool {
     })
 }
 
+/// A fresh directory for one canon_check run to use as `HOME`. rs274 2.9 keeps the tool
+/// table in a memory-mapped file, `$HOME/.tool.mmap`, that every rs274 of the same `HOME`
+/// shares: two runs at once then read each other's tool data (a `G10 L11` touch-off seen
+/// by the other program: `g10/g10-l11` failed its events check in CI) or die of a SIGBUS
+/// when one truncates the file the other has mapped.
+fn private_home() -> Result<PathBuf, String> {
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("ncsmooth-rs274-home-{}-{k}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(dir)
+}
+
 fn canon_check_once(
     tool: &Path,
     original: &Path,
     produced: &Path,
     tol: f64,
 ) -> Result<serde_json::Value, String> {
+    let home = private_home()?;
     let o = Command::new("python3")
         .arg(tool)
         .args([original, produced])
         .args(["--tol", &tol.to_string(), "--json"])
+        .env("HOME", &home)
         .output()
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| e.to_string());
+    let _ = std::fs::remove_dir_all(&home);
+    let o = o?;
     let r: serde_json::Value = serde_json::from_slice(&o.stdout)
         .map_err(|e| format!("{e}: {}", String::from_utf8_lossy(&o.stderr)))?;
     Ok(r)
