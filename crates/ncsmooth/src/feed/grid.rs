@@ -617,7 +617,7 @@ impl<'o> IndexFeeder<'o> {
             self.lead_sent = true;
         }
         let n = b.moves.len();
-        let upto = if all { n } else { n.saturating_sub(1) };
+        let upto = if all { n } else { b.held_back_from() };
         if let Some(m) = b.moves[..upto].last() {
             self.end = Some(m.segment.end());
         }
@@ -702,6 +702,9 @@ struct IndexBuilder<'o> {
     prev_joint: Option<After>,
     /// Number of the next move block (zero-length ones included).
     move_no: usize,
+    /// Jerk mode: the curvature steps of the recent G1 joints since the last stop, as
+    /// (arc length of the joint, step vector), for [`Self::close_joints`].
+    recent_steps: std::collections::VecDeque<(f64, Vec3)>,
 }
 
 impl<'o> IndexBuilder<'o> {
@@ -721,6 +724,7 @@ impl<'o> IndexBuilder<'o> {
             prev_no: None,
             prev_joint: None,
             move_no: 0,
+            recent_steps: std::collections::VecDeque::new(),
         }
     }
 
@@ -861,8 +865,109 @@ impl<'o> IndexBuilder<'o> {
         self.prev_no = Some(this_no);
         self.prev_joint = joint;
         self.s += len;
+        self.close_joints();
+    }
+
+    /// The first of the moves a streamed index holds back: the last move (its joint is not
+    /// known yet) and, in jerk mode, every move that ends within the reach of
+    /// [`Self::close_joints`] before the last move's start (their caps may still change).
+    fn held_back_from(&self) -> usize {
+        let Some(last) = self.moves.last() else {
+            return 0;
+        };
+        let reach = self.caps.jerk.map_or(0.0, |j| {
+            JOINT_STENCIL_PERIODS * j.period_s * self.opts.feed_mm_s.max(self.opts.rapid())
+        });
+        let from = last.s0 - reach - DEGENERATE_MM;
+        self.moves
+            .iter()
+            .position(|m| m.s0 + m.len >= from)
+            .unwrap_or(self.moves.len() - 1)
+    }
+
+    /// Jerk mode: caps the speed where G1 joints with curvature steps lie closer together
+    /// than the finite-difference stencil reaches. A step's share of the third difference
+    /// is `w v^2 step_i / T` with a weight `0 <= w <= `[`super::jerk::FD_STEP_FRACTION`]
+    /// that depends on where it falls in the stencil's three periods, so steps of one
+    /// sign within `3 v T` of each other add up (a short line between two blends:
+    /// linuxcnc_51MeanderAve had a 0.001 mm one, its steps of -1.25 and -3.61 /mm in y
+    /// read together as 5183 mm/s^3 at a 5000 limit), while steps of opposite signs (into
+    /// and out of a corner arc) partly cancel: per axis the larger of the positive and
+    /// the negative steps' sums bounds them. The joint
+    /// just indexed (between the last two moves) is checked against the earlier ones
+    /// within that reach at the speed its own cap allows; when others are there, the
+    /// moves between them get the cap of the summed steps (it bounds the speed at every
+    /// joint in between) and the earliest joint's cap is lowered to it too.
+    fn close_joints(&mut self) {
+        let Some(jerk) = self.caps.jerk else {
+            return;
+        };
+        let n = self.moves.len();
+        let x_own = match (n >= 2).then(|| self.moves[n - 2].after) {
+            Some(After::Continue { x_cap, .. }) => x_cap,
+            _ => {
+                self.recent_steps.clear();
+                return;
+            }
+        };
+        let (a, b) = (&self.moves[n - 2], &self.moves[n - 1]);
+        let (ka, kb) = (curvature_at(&a.segment, 1.0), curvature_at(&b.segment, 0.0));
+        let step = kb - ka;
+        let s_joint = b.s0;
+        let v_own = a.vcap_mm_s.max(b.vcap_mm_s).min(x_own.sqrt());
+        let reach = JOINT_STENCIL_PERIODS * jerk.period_s * v_own;
+        // Joints farther back than any speed's reach are forgotten.
+        let forget = JOINT_STENCIL_PERIODS * jerk.period_s * a.vcap_mm_s.max(b.vcap_mm_s);
+        while let Some(&(s, _)) = self.recent_steps.front() {
+            if s_joint - s > forget {
+                self.recent_steps.pop_front();
+            } else {
+                break;
+            }
+        }
+        if step.norm() <= NEGLIGIBLE {
+            return;
+        }
+        let close: Vec<(f64, Vec3)> = self
+            .recent_steps
+            .iter()
+            .copied()
+            .filter(|&(s, _)| s_joint - s <= reach)
+            .collect();
+        self.recent_steps.push_back((s_joint, step));
+        let Some(first) = close.first().map(|c| c.0) else {
+            return;
+        };
+        let sum = one_sign_sum(close.iter().map(|c| c.1).chain([step]));
+        let (ta, tb) = (tangent_at(&a.segment, 1.0), tangent_at(&b.segment, 0.0));
+        let rate = abs_max(end_rate(&a.segment, true), end_rate(&b.segment, false));
+        let x = jerk.speed_cap_x(abs_max(ta, tb), abs_max(ka, kb), rate, sum);
+        for m in self.moves[..n - 1].iter_mut().rev() {
+            if let After::Continue { x_cap, .. } = &mut m.after {
+                *x_cap = x_cap.min(x);
+            }
+            if m.s0 < first - DEGENERATE_MM {
+                // The move that ends at the earliest joint: only that joint is capped.
+                break;
+            }
+            m.vcap_mm_s = m.vcap_mm_s.min(x.sqrt());
+        }
     }
 }
+
+/// Per axis, the larger of the sums of the positive and of the negative components.
+fn one_sign_sum(steps: impl Iterator<Item = Vec3>) -> Vec3 {
+    let (mut pos, mut neg) = (Vec3::ZERO, Vec3::ZERO);
+    for st in steps {
+        pos += st.max(Vec3::ZERO);
+        neg -= st.min(Vec3::ZERO);
+    }
+    pos.max(neg)
+}
+
+/// Periods a third difference spans: curvature steps this close (in time) are seen
+/// together ([`IndexBuilder::close_joints`]).
+const JOINT_STENCIL_PERIODS: f64 = 3.0;
 
 /// The caps the planner uses for `opts`.
 pub fn caps_of(opts: &PlanOptions) -> Caps {

@@ -411,6 +411,92 @@ fn jerk_butterfly_wu_setting() {
     }
 }
 
+/// A path built by heading and turns: lines and tangent arcs in the XY plane.
+struct Turtle {
+    tp: Toolpath,
+    at: Vec3,
+    heading: f64,
+    feed_mm_s: f64,
+}
+
+impl Turtle {
+    fn new(start: Vec3, feed_mm_s: f64) -> Turtle {
+        Turtle {
+            tp: Toolpath::new(start),
+            at: start,
+            heading: 0.0,
+            feed_mm_s,
+        }
+    }
+    fn push(&mut self, seg: Segment, end: Vec3) {
+        let line = self.tp.moves().count() as u32 + 1;
+        self.tp
+            .push_move(Move::feed(seg, Some(self.feed_mm_s), line));
+        self.at = end;
+    }
+    fn line(&mut self, len: f64) {
+        let end = self.at + Vec3::new(self.heading.cos(), self.heading.sin(), 0.0) * len;
+        self.push(Line::new(self.at, end).into(), end);
+    }
+    /// An arc of `len` mm turning left (`curvature > 0`) or right.
+    fn arc(&mut self, curvature: f64, len: f64) {
+        let r = 1.0 / curvature.abs();
+        let side = curvature.signum();
+        let normal = Vec3::new(-self.heading.sin(), self.heading.cos(), 0.0) * side;
+        let center = self.at + normal * r;
+        self.heading += len * curvature;
+        let end_normal = Vec3::new(-self.heading.sin(), self.heading.cos(), 0.0) * side;
+        let end = center - end_normal * r;
+        let arc = Arc::from_center(self.at, end, center, Vec3::Z, side > 0.0, 0).unwrap();
+        self.push(arc.into(), end);
+    }
+    /// Two short arcs (curvature `k1` then `k2`, `arc_mm` each) with a 0.001 mm line
+    /// between them: with 0.009 mm arcs, the shape of two blends on linuxcnc_51MeanderAve.
+    fn s_bend(&mut self, k1: f64, k2: f64, arc_mm: f64) {
+        self.arc(k1, arc_mm);
+        self.line(0.001);
+        self.arc(k2, arc_mm);
+    }
+}
+
+/// An S-bend (curvature 1.25 then -3.6 /mm) between two lines; the lead-in line is
+/// `lead_mm` long (it sets where the joints fall between setpoints).
+fn s_bend(feed_mm_s: f64, lead_mm: f64) -> Toolpath {
+    let mut t = Turtle::new(Vec3::new(-lead_mm, 0.0, 0.0), feed_mm_s);
+    t.line(lead_mm);
+    t.s_bend(1.25, -3.6, 0.009);
+    t.line(2.0);
+    t.tp
+}
+
+#[test]
+fn jerk_close_curvature_steps_add_up() {
+    // The two steps in y at the ends of the 0.001 mm line (-1.25 and -3.6 /mm) fall into
+    // one third difference at these speeds: each alone allows about 1.36 mm/s at 5000
+    // mm/s^3, together they must not. Without the combined cap, the worst of these
+    // phases reads 5200 mm/s^3 or more at 1.32 mm/s.
+    let mut worst: f64 = 0.0;
+    for (feed, k) in [1.2, 1.32, 5.0]
+        .into_iter()
+        .flat_map(|f| (0..12).map(move |k| (f, k)))
+    {
+        let tp = s_bend(feed, 2.0 + k as f64 * 1.1e-4);
+        let p = PlanOptions {
+            acc_mm_s2: [500.0; 3],
+            jerk_mm_s3: Some([5000.0; 3]),
+            ..Default::default()
+        };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_eq!(rep.exact_stops.corner, 0, "feed {feed}");
+        assert_jerk_limits(&rep);
+        worst = worst.max(rep.axes[1].j_max_mm_s3);
+    }
+    // The bend is still taken at a good share of the limit (the summed steps are a bound:
+    // both weights are never 0.75 at once; measured 0.73 of the limit at worst).
+    assert!(worst > 0.6 * 5000.0, "{worst}");
+}
+
 #[test]
 fn jerk_stops_hold_the_corner() {
     // A square corner: the filtered motion comes to rest at the corner (a setpoint exactly
@@ -1022,6 +1108,54 @@ fn streamed_plan_equals_the_whole_plan() {
         assert_eq!(rep.exact_stops, whole_rep.exact_stops);
         assert!(rep.limits_held);
     }
+}
+
+#[test]
+fn streamed_close_joints_equal_the_whole_plan() {
+    // Thousands of S-bends and curls (their close joints share one speed cap; a curl's
+    // curvature steps up by 1 /mm four times within 0.004 mm, so a joint lowers the caps
+    // of the arcs before it) across the feeder's batches, which fall at every place of
+    // the 11-move unit: the setpoints are the whole program's. (A streamed index holds
+    // back the moves whose caps a later joint may lower; under the filter the cap of the
+    // last joint reaches them anyway, the window W being far longer than 3 periods, so
+    // this checks the caps agree, not the hold-back alone.)
+    let mut t = Turtle::new(Vec3::ZERO, 2.0);
+    for k in 0..(12 * crate::feed::grid::FEED_BATCH_MOVES / 11 + 7) {
+        t.line(0.004 + 1e-4 * (k % 7) as f64);
+        t.s_bend(1.25, -3.6, 0.009);
+        t.line(0.004);
+        let turn = if k % 2 == 0 { 1.0 } else { -1.0 };
+        for c in 1..=4 {
+            t.arc(turn * c as f64, 0.001);
+        }
+    }
+    let tp = t.tp;
+    let popts = PlanOptions {
+        jerk_mm_s3: Some([5000.0; 3]),
+        jerk_split: Some(crate::feed::jerk::JerkSplit::DEFAULT),
+        ..Default::default()
+    };
+    let iopts = InterpOptions::default();
+    let (whole_rep, whole): (_, Vec<Setpoint>) =
+        execute_into(&tp, &popts, &iopts, Vec::new()).unwrap();
+    assert!(whole_rep.limits_held);
+    let (planned, fed) = execute_streamed(
+        tp.start,
+        tp.extra_axes_mask,
+        &popts,
+        &iopts,
+        Vec::<Setpoint>::new(),
+        |f| {
+            for b in &tp.blocks {
+                f.push(b.clone());
+            }
+            Ok::<(), ()>(())
+        },
+    );
+    fed.unwrap();
+    let (rep, rows) = planned.unwrap();
+    assert!(rows == whole, "the streamed setpoints differ");
+    assert!(rep.limits_held);
 }
 
 #[test]
