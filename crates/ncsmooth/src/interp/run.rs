@@ -32,7 +32,7 @@ use crate::feed::grid::{IndexFeeder, RestRef};
 use crate::feed::window::{MoveWindow, Reader};
 use crate::feed::{
     plan_stream, JerkScheme, PathIndex, PlanEvent, PlanOptions, PlanOptionsError, PlanStats,
-    ProfilePiece, StopCounts, StopReason, PRINT_RESOLUTION_MM,
+    ProfilePiece, StopCounts, StopReason, VEL_NOISE_MM,
 };
 use crate::path::{Toolpath, EXTRA_AXIS_NAMES};
 use serde::Serialize;
@@ -704,10 +704,10 @@ fn run_index_inner<S: SetpointSink + Send>(
                 v_max_mm_s: fd.v_max[i],
                 v_limit_mm_s: v_limit,
                 // A per-axis limit holds strictly; the feed (a commanded speed, planned at
-                // its value) up to one print unit per period.
+                // its value) up to the first difference's noise (rounding and landing).
                 v_within: match popts.vaxis_mm_s {
                     Some(_) => fd.v_max[i] <= v_limit,
-                    None => fd.v_max[i] <= v_limit * (1.0 + 1e-9) + PRINT_RESOLUTION_MM / period,
+                    None => fd.v_max[i] <= v_limit * (1.0 + 1e-9) + VEL_NOISE_MM / period,
                 },
                 a_max_mm_s2: fd.a_max[i],
                 a_max_at_s: fd.a_max_t[i],

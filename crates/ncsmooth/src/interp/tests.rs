@@ -970,7 +970,7 @@ proptest! {
                 if let Some(j) = p.jerk_mm_s3 {
                     prop_assert!(m[2][i] <= j[i], "axis {i} jerk {} > {} at T {period}", m[2][i], j[i]);
                 }
-                prop_assert!(m[0][i] <= feed + 1e-9 / period, "axis {i} speed {}", m[0][i]);
+                prop_assert!(m[0][i] <= feed + crate::feed::VEL_NOISE_MM / period, "axis {i} speed {}", m[0][i]);
             }
             prop_assert!(rep.limits_held, "{:?}", rep.axes);
             planned = true;
