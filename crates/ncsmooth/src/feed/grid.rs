@@ -941,7 +941,7 @@ impl<'o> IndexBuilder<'o> {
         let sum = one_sign_sum(close.iter().map(|c| c.1).chain([step]));
         let (ta, tb) = (tangent_at(&a.segment, 1.0), tangent_at(&b.segment, 0.0));
         let rate = abs_max(end_rate(&a.segment, true), end_rate(&b.segment, false));
-        let x = jerk.speed_cap_x(abs_max(ta, tb), abs_max(ka, kb), rate, sum);
+        let x = jerk.joint_speed_cap_x(abs_max(ta, tb), abs_max(ka, kb), rate, sum, tb - ta);
         for m in self.moves[..n - 1].iter_mut().rev() {
             if let After::Continue { x_cap, .. } = &mut m.after {
                 *x_cap = x_cap.min(x);
@@ -1017,11 +1017,12 @@ fn joint_after(a: &Segment, b: &Segment, opts: &PlanOptions, caps: &Caps) -> Aft
     }
     let (ka, kb) = (curvature_at(a, 1.0), curvature_at(b, 0.0));
     let jerk_cap = caps.jerk.map_or(f64::INFINITY, |j| {
-        j.speed_cap_x(
+        j.joint_speed_cap_x(
             abs_max(ta, tb),
             abs_max(ka, kb),
             abs_max(end_rate(a, true), end_rate(b, false)),
             kb - ka,
+            tb - ta,
         )
     });
     After::Continue {

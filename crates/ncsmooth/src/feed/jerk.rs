@@ -300,8 +300,18 @@ impl JerkCaps {
     /// (zero elsewhere). Each term grows with `v`, so the largest admissible speed is
     /// found by bisection.
     pub fn speed_cap_x(&self, t: Vec3, k: Vec3, rate: Vec3, step: Vec3) -> f64 {
+        self.joint_speed_cap_x(t, k, rate, step, Vec3::ZERO)
+    }
+
+    /// [`Self::speed_cap_x`] at a G1 joint whose unit tangent jumps by `kink` (`t_b - t_a`,
+    /// a turn below [`crate::verify::TANGENT_TOL_DEG`] that the plan passes as tangent):
+    /// the velocity jumps by `v kink` between two setpoints, which a third difference
+    /// shows as up to `v |kink_i| / T^2` (a ramp's third difference is at most one period
+    /// whatever its phase), a term linear in `v` beside the others.
+    pub fn joint_speed_cap_x(&self, t: Vec3, k: Vec3, rate: Vec3, step: Vec3, kink: Vec3) -> f64 {
         let mut x = f64::INFINITY;
         for i in 0..3 {
+            let c0 = kink[i].abs() / (self.period_s * self.period_s);
             let c2 = FD_STEP_FRACTION * step[i].abs() / self.period_s;
             let c1 = 3.0 * k[i].abs();
             let (u, w) = (self.u_max_mm_s2, self.window_s);
@@ -309,9 +319,12 @@ impl JerkCaps {
             // At least (1 - jt_share) J_i: J_t <= jt_share J_i and |t_i| <= 1.
             let budget = self.jerk_mm_s3[i] - self.jt_mm_s3 * t[i].abs().min(1.0);
             // |s_f''| <= min(U, v / W): see point 4 of the module doc.
-            let f = |v: f64| c1 * v * u.min(v / w) + c2 * v * v + c3 * v * v * v;
+            let f = |v: f64| c0 * v + c1 * v * u.min(v / w) + c2 * v * v + c3 * v * v * v;
             // Upper bound: each term alone.
             let mut hi = f64::INFINITY;
+            if c0 > NEGLIGIBLE {
+                hi = hi.min(budget / c0);
+            }
             if c1 > NEGLIGIBLE {
                 hi = hi.min((budget / (c1 * u)).max((budget * w / c1).sqrt()));
             }

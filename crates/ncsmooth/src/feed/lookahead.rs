@@ -189,6 +189,11 @@ fn dilate(
     );
 }
 
+/// Largest turn (the norm of the tangent's change) of a joint of two straight intervals
+/// taken as collinear by [`line_accels`]: rounding of a line split in two stays far below,
+/// a programmed kink (coordinates rounded to 4 decimals) far above.
+const KINK_NEGLIGIBLE: f64 = 1e-12;
+
 /// Jerk mode: the tangential limit of each straight interval of a window (see
 /// [`super::jerk`], point 6): `u_hi` when no curved interval lies within `reach` of it
 /// (`curved_behind`: the end of the last curved interval before the window; beyond the
@@ -205,11 +210,25 @@ fn line_accels(
     next_curved: &mut Vec<f64>,
 ) {
     let n = ivs.len();
-    // Start of the first curved interval after each interval.
+    // A joint of two straight intervals whose tangent turns (a kink below the tangent
+    // tolerance, passed without a stop) jumps the velocity by `v |kink|` between two
+    // setpoints: its jerk needs the room a curve needs, so it counts as a curved point.
+    let kinked: Vec<bool> = (0..n)
+        .map(|k| {
+            k + 1 < n
+                && ivs[k].straight
+                && ivs[k + 1].straight
+                && (ivs[k].t1 - ivs[k + 1].t0).norm() > KINK_NEGLIGIBLE
+        })
+        .collect();
+    // Start of the first curved interval (or kink) after each interval.
     next_curved.clear();
     next_curved.resize(n, 0.0);
     let mut next = if ended { f64::INFINITY } else { pts[n].s };
     for k in (0..n).rev() {
+        if kinked[k] {
+            next = pts[k + 1].s;
+        }
         next_curved[k] = next;
         if !ivs[k].straight {
             next = pts[k].s;
@@ -220,6 +239,9 @@ fn line_accels(
         if ivs[k].straight {
             let far = pts[k].s - prev > reach && next_curved[k] - pts[k + 1].s > reach;
             ivs[k].u_line = if far { u_hi.max(u_lo) } else { u_lo };
+            if kinked[k] {
+                prev = pts[k + 1].s;
+            }
         } else {
             prev = pts[k + 1].s;
         }

@@ -498,6 +498,33 @@ fn jerk_close_curvature_steps_add_up() {
 }
 
 #[test]
+fn jerk_kinks_below_the_tangent_tolerance_hold() {
+    // Diagonal lines with a 0.009 degree kink (passed as tangent, no stop) while the
+    // feed ramps up to 100 mm/s: the velocity jumps by v |kink| between two setpoints,
+    // which the joint's speed cap allows for (without it: y jerk 6248 mm/s^3 at lead 11).
+    // The kink also counts as a curved point for the lines' tangential limit (on
+    // linuxcnc_LHchips4, bspline, a 0.006 degree kink on a line ramping at the full
+    // line jerk read 5051 mm/s^3 at 5000).
+    let theta = 0.009_f64.to_radians();
+    for lead in [11.0, 12.5, 14.0, 16.0] {
+        let d1 = Vec3::new(1.0, 1.0, 0.0) * std::f64::consts::FRAC_1_SQRT_2;
+        let a = std::f64::consts::FRAC_PI_4 + theta;
+        let d2 = Vec3::new(a.cos(), a.sin(), 0.0);
+        let p1 = d1 * lead;
+        let tp = Toolpath::from_polyline(&[Vec3::ZERO, p1, p1 + d2 * 60.0], None);
+        let p = PlanOptions {
+            feed_mm_s: 100.0,
+            jerk_mm_s3: Some([5000.0; 3]),
+            ..Default::default()
+        };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_eq!(rep.exact_stops.corner, 0);
+        assert_jerk_limits(&rep);
+    }
+}
+
+#[test]
 fn jerk_stops_hold_the_corner() {
     // A square corner: the filtered motion comes to rest at the corner (a setpoint exactly
     // there) and the jerk holds on both sides.
