@@ -702,9 +702,9 @@ struct IndexBuilder<'o> {
     prev_joint: Option<After>,
     /// Number of the next move block (zero-length ones included).
     move_no: usize,
-    /// Jerk mode: the curvature steps of the recent G1 joints since the last stop, as
-    /// (arc length of the joint, step vector), for [`Self::close_joints`].
-    recent_steps: std::collections::VecDeque<(f64, Vec3)>,
+    /// Jerk mode: the recent G1 joints with a curvature step or a kink since the last
+    /// stop, for [`Self::close_joints`].
+    recent_steps: std::collections::VecDeque<CloseJoint>,
 }
 
 impl<'o> IndexBuilder<'o> {
@@ -878,33 +878,42 @@ impl<'o> IndexBuilder<'o> {
         let reach = self.caps.jerk.map_or(0.0, |j| {
             JOINT_STENCIL_PERIODS * j.period_s * self.opts.feed_mm_s.max(self.opts.rapid())
         });
-        let from = last.s0 - reach - DEGENERATE_MM;
+        // The next joint is at the last move's end; a move ending before `from` is out
+        // of its reach.
+        let from = last.s0 + last.len - reach - DEGENERATE_MM;
         self.moves
             .iter()
             .position(|m| m.s0 + m.len >= from)
             .unwrap_or(self.moves.len() - 1)
     }
 
-    /// Jerk mode: caps the speed where G1 joints with curvature steps lie closer together
-    /// than the finite-difference stencil reaches. A step's share of the third difference
-    /// is `w v^2 step_i / T` with a weight `0 <= w <= `[`super::jerk::FD_STEP_FRACTION`]
-    /// that depends on where it falls in the stencil's three periods, so steps of one
-    /// sign within `3 v T` of each other add up (a short line between two blends:
-    /// linuxcnc_51MeanderAve had a 0.001 mm one, its steps of -1.25 and -3.61 /mm in y
-    /// read together as 5183 mm/s^3 at a 5000 limit), while steps of opposite signs (into
-    /// and out of a corner arc) partly cancel: per axis the larger of the positive and
-    /// the negative steps' sums bounds them. The joint
-    /// just indexed (between the last two moves) is checked against the earlier ones
-    /// within that reach at the speed its own cap allows; when others are there, the
-    /// moves between them get the cap of the summed steps (it bounds the speed at every
-    /// joint in between) and the earliest joint's cap is lowered to it too.
+    /// Jerk mode: caps the speed where G1 joints with curvature steps or kinks lie closer
+    /// together than the finite-difference stencil reaches. A step's share of the
+    /// finite-difference jerk is `w v^2 step_i / T` with a weight
+    /// `0 <= w <= `[`super::jerk::FD_STEP_FRACTION`] that depends on where it falls in the
+    /// stencil's three periods, so steps of one sign within `3 v T` of each other add up
+    /// (a short line between two blends: linuxcnc_51MeanderAve had a 0.001 mm one, its
+    /// steps of -1.25 and -3.61 /mm in y read together as 5183 mm/s^3 at a 5000 limit),
+    /// while steps of opposite signs (into and out of a corner arc) partly cancel: per
+    /// axis the larger of the positive and the negative steps' sums bounds them. A kink's
+    /// weight changes sign across the stencil, so kinks add up in magnitude
+    /// ([`CloseJoint::group_cap_x`]). The joint just indexed (between the last two moves)
+    /// is checked against the earlier ones within that reach at the speed its own cap
+    /// allows; when others are there, the moves between them get the group's cap (it
+    /// bounds the speed at every joint in between) and the earliest joint's cap is
+    /// lowered to it too. A stop or a junction-blended corner ends a group.
     fn close_joints(&mut self) {
         let Some(jerk) = self.caps.jerk else {
             return;
         };
         let n = self.moves.len();
+        // A stop or a corner blended under the junction deviation (a velocity jump the
+        // plan reports rather than limits, see `super::jerk`) ends the group.
         let x_own = match (n >= 2).then(|| self.moves[n - 2].after) {
-            Some(After::Continue { x_cap, .. }) => x_cap,
+            Some(After::Continue {
+                x_cap,
+                blended: false,
+            }) => x_cap,
             _ => {
                 self.recent_steps.clear();
                 return;
@@ -912,36 +921,42 @@ impl<'o> IndexBuilder<'o> {
         };
         let (a, b) = (&self.moves[n - 2], &self.moves[n - 1]);
         let (ka, kb) = (curvature_at(&a.segment, 1.0), curvature_at(&b.segment, 0.0));
-        let step = kb - ka;
-        let s_joint = b.s0;
+        let (ta, tb) = (tangent_at(&a.segment, 1.0), tangent_at(&b.segment, 0.0));
+        let joint = CloseJoint {
+            s: b.s0,
+            step: kb - ka,
+            kink: abs_max(tb - ta, Vec3::ZERO),
+            t: abs_max(ta, tb),
+            k: abs_max(ka, kb),
+            rate: abs_max(end_rate(&a.segment, true), end_rate(&b.segment, false)),
+        };
         let v_own = a.vcap_mm_s.max(b.vcap_mm_s).min(x_own.sqrt());
         let reach = JOINT_STENCIL_PERIODS * jerk.period_s * v_own;
         // Joints farther back than any speed's reach are forgotten.
         let forget = JOINT_STENCIL_PERIODS * jerk.period_s * a.vcap_mm_s.max(b.vcap_mm_s);
-        while let Some(&(s, _)) = self.recent_steps.front() {
-            if s_joint - s > forget {
+        while let Some(front) = self.recent_steps.front() {
+            if joint.s - front.s > forget {
                 self.recent_steps.pop_front();
             } else {
                 break;
             }
         }
-        if step.norm() <= NEGLIGIBLE {
+        if joint.step.norm() <= NEGLIGIBLE && joint.kink.norm() <= NEGLIGIBLE {
             return;
         }
-        let close: Vec<(f64, Vec3)> = self
+        let close: Vec<CloseJoint> = self
             .recent_steps
             .iter()
             .copied()
-            .filter(|&(s, _)| s_joint - s <= reach)
+            .filter(|c| joint.s - c.s <= reach)
+            .chain([joint])
             .collect();
-        self.recent_steps.push_back((s_joint, step));
-        let Some(first) = close.first().map(|c| c.0) else {
+        self.recent_steps.push_back(joint);
+        let first = close[0].s;
+        if close.len() < 2 {
             return;
-        };
-        let sum = one_sign_sum(close.iter().map(|c| c.1).chain([step]));
-        let (ta, tb) = (tangent_at(&a.segment, 1.0), tangent_at(&b.segment, 0.0));
-        let rate = abs_max(end_rate(&a.segment, true), end_rate(&b.segment, false));
-        let x = jerk.joint_speed_cap_x(abs_max(ta, tb), abs_max(ka, kb), rate, sum, tb - ta);
+        }
+        let x = CloseJoint::group_cap_x(&close, &jerk);
         for m in self.moves[..n - 1].iter_mut().rev() {
             if let After::Continue { x_cap, .. } = &mut m.after {
                 *x_cap = x_cap.min(x);
@@ -952,6 +967,33 @@ impl<'o> IndexBuilder<'o> {
             }
             m.vcap_mm_s = m.vcap_mm_s.min(x.sqrt());
         }
+    }
+}
+
+/// A G1 joint remembered by [`IndexBuilder::close_joints`]: its arc length, curvature step
+/// and tangent kink (componentwise magnitude), and the componentwise largest tangent,
+/// curvature and curvature rate of its two sides.
+#[derive(Clone, Copy, Debug)]
+struct CloseJoint {
+    s: f64,
+    step: Vec3,
+    kink: Vec3,
+    t: Vec3,
+    k: Vec3,
+    rate: Vec3,
+}
+
+impl CloseJoint {
+    /// The cap on `v^2` of joints one third difference may see together: the steps of
+    /// one sign summed per axis (their weights are all positive), the kinks summed in
+    /// magnitude (a velocity jump's weight changes sign across the stencil, at most one
+    /// period either way), the largest tangent, curvature and rate of any of them.
+    fn group_cap_x(group: &[CloseJoint], jerk: &super::jerk::JerkCaps) -> f64 {
+        let step = one_sign_sum(group.iter().map(|c| c.step));
+        let kink = group.iter().fold(Vec3::ZERO, |acc, c| acc + c.kink);
+        let max =
+            |f: fn(&CloseJoint) -> Vec3| group.iter().fold(Vec3::ZERO, |acc, c| abs_max(acc, f(c)));
+        jerk.joint_speed_cap_x(max(|c| c.t), max(|c| c.k), max(|c| c.rate), step, kink)
     }
 }
 

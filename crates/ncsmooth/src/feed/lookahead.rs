@@ -194,6 +194,13 @@ fn dilate(
 /// a programmed kink (coordinates rounded to 4 decimals) far above.
 const KINK_NEGLIGIBLE: f64 = 1e-12;
 
+/// Whether straight intervals `k` and `k + 1` meet at a kink ([`KINK_NEGLIGIBLE`]).
+fn kinked(ivs: &[Interval], k: usize) -> bool {
+    ivs.get(k + 1).is_some_and(|next| {
+        ivs[k].straight && next.straight && (ivs[k].t1 - next.t0).norm() > KINK_NEGLIGIBLE
+    })
+}
+
 /// Jerk mode: the tangential limit of each straight interval of a window (see
 /// [`super::jerk`], point 6): `u_hi` when no curved interval lies within `reach` of it
 /// (`curved_behind`: the end of the last curved interval before the window; beyond the
@@ -213,20 +220,12 @@ fn line_accels(
     // A joint of two straight intervals whose tangent turns (a kink below the tangent
     // tolerance, passed without a stop) jumps the velocity by `v |kink|` between two
     // setpoints: its jerk needs the room a curve needs, so it counts as a curved point.
-    let kinked: Vec<bool> = (0..n)
-        .map(|k| {
-            k + 1 < n
-                && ivs[k].straight
-                && ivs[k + 1].straight
-                && (ivs[k].t1 - ivs[k + 1].t0).norm() > KINK_NEGLIGIBLE
-        })
-        .collect();
     // Start of the first curved interval (or kink) after each interval.
     next_curved.clear();
     next_curved.resize(n, 0.0);
     let mut next = if ended { f64::INFINITY } else { pts[n].s };
     for k in (0..n).rev() {
-        if kinked[k] {
+        if kinked(ivs, k) {
             next = pts[k + 1].s;
         }
         next_curved[k] = next;
@@ -239,7 +238,7 @@ fn line_accels(
         if ivs[k].straight {
             let far = pts[k].s - prev > reach && next_curved[k] - pts[k + 1].s > reach;
             ivs[k].u_line = if far { u_hi.max(u_lo) } else { u_lo };
-            if kinked[k] {
+            if kinked(ivs, k) {
                 prev = pts[k + 1].s;
             }
         } else {
@@ -478,7 +477,11 @@ fn plan_with(
                 let keep = tail.partition_point(|&(s, _)| s < s_c - r);
                 tail.drain(..keep);
             }
-            if let Some(k) = (0..commit).rev().find(|&k| !ivs[k].straight) {
+            // A kink counts as curved (see `line_accels`), also across windows.
+            if let Some(k) = (0..commit)
+                .rev()
+                .find(|&k| !ivs[k].straight || kinked(&ivs, k))
+            {
                 curved_behind = pts[k + 1].s;
             }
             x0 = xf[commit];

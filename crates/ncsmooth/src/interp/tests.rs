@@ -525,6 +525,84 @@ fn jerk_kinks_below_the_tangent_tolerance_hold() {
 }
 
 #[test]
+fn jerk_close_kinks_add_up() {
+    // A zig-zag of alternating +-0.009 degree kinks (passed as tangent) about a period
+    // apart at the speed each kink's own cap allows: one third difference sees two of
+    // opposite sign, twice one kink's share (without grouping them: 9877 mm/s^3 at 5000).
+    let theta = 0.009_f64.to_radians();
+    for seg in [0.026, 0.029, 0.0315, 0.034] {
+        let mut pts = vec![Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0)];
+        let mut at = pts[1];
+        for k in 0..400 {
+            let h = if k % 2 == 0 {
+                0.5 * theta
+            } else {
+                -0.5 * theta
+            };
+            at += Vec3::new(h.cos(), h.sin(), 0.0) * seg;
+            pts.push(at);
+        }
+        pts.push(at + Vec3::new(5.0, 0.0, 0.0));
+        let tp = Toolpath::from_polyline(&pts, None);
+        let p = PlanOptions {
+            jerk_mm_s3: Some([5000.0; 3]),
+            jerk_split: Some(crate::feed::jerk::JerkSplit::DEFAULT),
+            ..Default::default()
+        };
+        let (rep, r) = run(&tp, &p, &InterpOptions::default());
+        check_invariants(&tp, &rep, &r);
+        assert_eq!(rep.exact_stops.corner, 0);
+        assert_jerk_limits(&rep);
+    }
+}
+
+#[test]
+fn jerk_close_joints_leave_blended_corners_alone() {
+    // A 0.002 mm arc just before a corner blended under the junction deviation: the
+    // corner is a velocity jump the plan reports, not a joint to group with the arc's
+    // curvature steps (grouped, its cap fell from v = 12.6 to 0.008 mm/s).
+    let corner_cap = |with_arc: bool| {
+        let mut t = Turtle::new(Vec3::ZERO, 50.0);
+        t.line(5.0);
+        if with_arc {
+            t.arc(2.0, 0.002);
+        }
+        t.heading += 0.5;
+        t.line(5.0);
+        let p = PlanOptions {
+            jerk_mm_s3: Some([5000.0; 3]),
+            jerk_split: Some(crate::feed::jerk::JerkSplit::DEFAULT),
+            junction_dev_mm: Some(0.01),
+            ..Default::default()
+        };
+        let (rep, r) = run(&t.tp, &p, &InterpOptions::default());
+        check_invariants(&t.tp, &rep, &r);
+        assert_eq!(rep.exact_stops.junction_blended, 1);
+        let idx = crate::feed::PathIndex::new(&t.tp, &p);
+        let caps: Vec<f64> = idx
+            .moves
+            .iter()
+            .filter_map(|m| match m.after {
+                crate::feed::grid::After::Continue {
+                    x_cap,
+                    blended: true,
+                } => Some(x_cap),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(caps.len(), 1);
+        caps[0]
+    };
+    let (plain, with_arc) = (corner_cap(false), corner_cap(true));
+    // The arc turns the path by 0.004 rad before the corner: nearly the same cap.
+    assert!(plain > 100.0, "{plain}");
+    assert!(
+        (with_arc - plain).abs() < 0.01 * plain,
+        "{with_arc} vs {plain}"
+    );
+}
+
+#[test]
 fn jerk_stops_hold_the_corner() {
     // A square corner: the filtered motion comes to rest at the corner (a setpoint exactly
     // there) and the jerk holds on both sides.
