@@ -77,7 +77,13 @@
 //!    samples), i.e. a finite-difference jerk of `0.75 Delta / T` on top of the smooth
 //!    terms, which are evaluated with the larger curvature and rate of the two sides.
 //!    This bounds what the setpoints show, as the issue asks; the true (continuous) jerk
-//!    at a curvature jump is unbounded whatever the speed.
+//!    at a curvature jump is unbounded whatever the speed. A joint whose tangent turns
+//!    by less than the tangent tolerance (passed without a stop) jumps the velocity by
+//!    `v dT`: up to `v |dT_i| / T^2` more ([`JerkCaps::joint_speed_cap_x`]), and such a
+//!    kink counts as a curved point for point 6. Joints closer than three periods of
+//!    travel are seen together by one third difference: their steps (of one sign) and
+//!    kinks are summed into one cap over the moves between them
+//!    (`grid::IndexBuilder::close_joints`).
 //! 5. Stops: the plan rests at every stop for `W` more than the trapezoid would, so the
 //!    filter window never straddles a corner (the filtered motion comes to rest exactly
 //!    at the stop point and leaves from it). The end of motion is therefore `W` later.

@@ -78,8 +78,8 @@
 //! and `1/T^3`: a longer period resolves smaller limits. The feed and rapid rates are
 //! commanded speeds, planned at their value; the measured axis speeds may exceed them by
 //! the first difference's noise, [`VEL_NOISE_MM`]` / T` (a jerk-filtered run at the feed
-//! showed 1.17 print units per period on camotics_tiger), and rates below
-//! [`FEED_NOISE_SHARE`] of one print unit per period are refused.
+//! showed 1.17 print units per period on camotics_tiger), and a rate is refused when one
+//! print unit per period is more than [`FEED_NOISE_SHARE`] of it.
 //! * Every stop is held until the next period boundary, so the stop point itself is a
 //!   setpoint (the corner is not cut between two setpoints) and the next motion starts on
 //!   the period grid.
