@@ -1547,3 +1547,54 @@ fn plan_of_a_file_bad_late_names_the_line_and_writes_nothing() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A comment between two smoothed lines with a feed change (cncjs_jsdc's plunge, cut and
+/// retract) used to cut a corner transition in two, each half a block of three steps that
+/// no lifting could lengthen: grbl is given the programmed corner there instead.
+#[test]
+fn grbl_corners_at_comment_split_feed_changes_have_no_short_blocks() {
+    let d = tmpdir("grbl_comment_corners");
+    let mut src = String::from("G21 G90\nG1 X10 Y10 F2540\nG1 Z0\n; plunge\nG1 Z-1 F127\n; cut\n");
+    for k in 1..=12 {
+        let x = 10.0 - 0.2 * k as f64;
+        let y = 10.0 + 0.002 * (k * k) as f64;
+        src += &format!("G1 X{x:.4} Y{y:.4}{}\n", if k == 1 { " F1016" } else { "" });
+    }
+    src += "; Retract\nG1 Z1 F2540\nM2\n";
+    let f = write(&d, "plunge.ngc", src.as_bytes());
+    for method in ["bspline", "arc", "trig", "nurbs"] {
+        let (out, rep) = (
+            d.join(format!("{method}.gcode")),
+            d.join(format!("{method}.json")),
+        );
+        let o = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            method,
+            "--tol",
+            "0.01",
+            "--dialect",
+            "grbl",
+            "-o",
+            out.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+        assert_eq!(r["within_tol"], true, "{method}");
+        let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
+        assert!(
+            min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
+            "{method}: {}",
+            r["blocks"]
+        );
+        let text = std::fs::read_to_string(&out).unwrap();
+        let at = |c: &str| text.find(c).unwrap_or_else(|| panic!("{method}: {c} lost"));
+        assert!(
+            at("; plunge") < at("; cut") && at("; cut") < at("; Retract"),
+            "{text}"
+        );
+    }
+}

@@ -27,7 +27,7 @@
 use crate::source::{flags, LineInfo, PathMode, WriteState};
 use crate::writer::{push_fixed, ChainMode, Floor, Frame, MotionWriter, MAX_DECIMALS};
 use crate::{Plane, Program};
-use ncsmooth::geom::{Flatten, ParamCurve, Vec3};
+use ncsmooth::geom::{Flatten, Line, ParamCurve, ParamCurveArclen, Segment, Vec3};
 use ncsmooth::path::{Move, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
@@ -279,6 +279,105 @@ fn moves_by_line<'a>(moves: &[&'a Move], n_lines: usize) -> Result<ByLine<'a>, R
     Ok((grouped, ranges))
 }
 
+/// Under a [`BlockFloor`] (the stepper dialects): the output's moves with every corner
+/// transition shorter than two floors that ends a run where a verbatim line (a comment)
+/// separates two smoothed lines replaced by the programmed corner (the line before it, or
+/// the transition itself after a curve, ends at the programmed vertex, where the line
+/// after it starts); `None` when there is none. Written, such a transition lies between
+/// two points no lifting may move (the run's end stays, the verbatim line comes after
+/// it), so it is one or two blocks shorter than the floor: cncjs_jsdc's plunge-to-cut and
+/// cut-to-retract corners gave grbl blocks of 3 steps. The programmed corner is the
+/// programmed path itself (no deviation); a stepper controller takes it at its own
+/// junction speed, and the feed changes there anyway.
+fn floor_corners(
+    output: &Toolpath,
+    orig: &[&Move],
+    orig_by: &[(usize, usize)],
+    floor: Option<BlockFloor>,
+) -> Option<Vec<Move>> {
+    let floor = floor?;
+    let moves: Vec<&Move> = output.moves().collect();
+    let verbatim_between = |a: u32, b: u32| {
+        ((a as usize)..(b as usize).saturating_sub(1)).any(|j| orig_by[j].0 == orig_by[j].1)
+    };
+    // The programmed vertex that ends line `line` (its last programmed move's end).
+    let vertex_after = |line: u32| {
+        let (a, b) = orig_by[(line as usize).checked_sub(1)?];
+        (b > a).then(|| orig[b - 1])
+    };
+    // (index of the transition, programmed corner, extra axes there, whether the line
+    // before it is lengthened to the corner)
+    let corners: Vec<(usize, Vec3, Option<ncsmooth::path::ExtraAxes>, bool)> =
+        (1..moves.len().saturating_sub(1))
+            .filter_map(|k| {
+                let (prev, m, next) = (moves[k - 1], moves[k], moves[k + 1]);
+                let lines = !matches!(m.segment, Segment::Line(_));
+                let plain = !prev.pinned && !m.pinned && !next.pinned;
+                if !(lines
+                    && plain
+                    && next.line > m.line + 1
+                    && verbatim_between(m.line, next.line)
+                    && m.segment.arclen(RETAG_ARCLEN_ACCURACY_MM) < 2.0 * floor.min_block_mm)
+                {
+                    return None;
+                }
+                let v = vertex_after(m.line)?;
+                let corner = v.segment.end();
+                let reach = floor.tol_mm + floor.min_block_mm;
+                (corner.dist(m.segment.start()) <= reach && corner.dist(m.segment.end()) <= reach)
+                    .then_some((
+                        k,
+                        corner,
+                        v.extra,
+                        matches!(prev.segment, Segment::Line(_)) && prev.line == m.line,
+                    ))
+            })
+            .collect();
+    if corners.is_empty() {
+        return None;
+    }
+    let mut out: Vec<Move> = moves.iter().map(|m| (*m).clone()).collect();
+    let mut dropped = vec![false; out.len()];
+    let mut inserted: Vec<Option<Move>> = vec![None; out.len()];
+    for &(k, corner, extra, line_before) in &corners {
+        // A line of the same program line before the corner is lengthened to it; else
+        // the transition becomes the line from its start to the corner (within the band:
+        // both ends are).
+        let before = if line_before {
+            dropped[k] = true;
+            &mut out[k - 1]
+        } else {
+            &mut out[k]
+        };
+        before.segment = Line::new(before.segment.start(), corner).into();
+        before.extra = extra.or(before.extra);
+        // A line after it starts at the corner; a curve after it (a fitted run) is reached
+        // by the line from the corner to the transition's end, which starts the next run
+        // (whose lifting may then drop that end).
+        if let Segment::Line(l) = &out[k + 1].segment {
+            out[k + 1].segment = Line::new(corner, l.p1).into();
+        } else {
+            // It lies on the next programmed move: at that move's feed.
+            inserted[k] = Some(Move {
+                segment: Line::new(corner, moves[k].segment.end()).into(),
+                line: moves[k + 1].line,
+                feed_mm_s: moves[k + 1].feed_mm_s,
+                ..moves[k].clone()
+            });
+        }
+    }
+    Some(
+        out.into_iter()
+            .zip(dropped)
+            .zip(inserted)
+            .flat_map(|((m, d), ins)| (!d).then_some(m).into_iter().chain(ins))
+            .collect(),
+    )
+}
+
+/// Accuracy (mm) of the arc lengths [`floor_corners`] compares with the floor.
+const RETAG_ARCLEN_ACCURACY_MM: f64 = 1e-6;
+
 fn same_moves(a: &[&Move], b: &[&Move]) -> bool {
     a.len() == b.len()
         && a.iter().zip(b).all(|(x, y)| {
@@ -343,8 +442,12 @@ pub fn rewrite(
 ) -> Result<Vec<u8>, RewriteError> {
     let lines = &program.source.lines;
     let orig: Vec<&Move> = program.toolpath.moves().collect();
-    let out: Vec<&Move> = output.moves().collect();
     let (orig, orig_by) = moves_by_line(&orig, lines.len())?;
+    let cornered = floor_corners(output, &orig, &orig_by, opts.block_floor);
+    let out: Vec<&Move> = match &cornered {
+        Some(moves) => moves.iter().collect(),
+        None => output.moves().collect(),
+    };
     let (out, out_by) = moves_by_line(&out, lines.len())?;
     let eol = if src.windows(2).any(|w| w == b"\r\n") {
         "\r\n"
