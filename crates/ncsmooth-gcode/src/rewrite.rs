@@ -27,7 +27,9 @@
 use crate::source::{flags, LineInfo, PathMode, WriteState};
 use crate::writer::{push_fixed, ChainMode, Floor, Frame, MotionWriter, MAX_DECIMALS};
 use crate::{Plane, Program};
-use ncsmooth::geom::{Flatten, Line, ParamCurve, ParamCurveArclen, Segment, Vec3};
+use ncsmooth::geom::{
+    Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
+};
 use ncsmooth::path::{Move, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
@@ -297,8 +299,22 @@ fn floor_corners(
 ) -> Option<Vec<Move>> {
     let floor = floor?;
     let moves: Vec<&Move> = output.moves().collect();
+    // None of the lines strictly between `a` and `b` (numbers) moves (a repeated point at
+    // most: the programmed path goes straight from line `a`'s last move to line `b`'s
+    // first), and one of them has no move at all: a verbatim line separates the runs.
     let verbatim_between = |a: u32, b: u32| {
-        ((a as usize)..(b as usize).saturating_sub(1)).any(|j| orig_by[j].0 == orig_by[j].1)
+        let between = (a as usize)..(b as usize).saturating_sub(1);
+        let still = |j: usize| {
+            orig[orig_by[j].0..orig_by[j].1]
+                .iter()
+                .all(|m| m.segment.start().dist(m.segment.end()) <= RETAG_ARCLEN_ACCURACY_MM)
+        };
+        between.clone().all(still) && between.into_iter().any(|j| orig_by[j].0 == orig_by[j].1)
+    };
+    // The programmed move that starts line `line`.
+    let first_of = |line: u32| {
+        let (a, b) = orig_by[(line as usize).checked_sub(1)?];
+        (b > a).then(|| orig[a])
     };
     // The programmed vertex that ends line `line` (its last programmed move's end).
     let vertex_after = |line: u32| {
@@ -307,32 +323,46 @@ fn floor_corners(
     };
     // (index of the transition, programmed corner, extra axes there, whether the line
     // before it is lengthened to the corner)
-    let corners: Vec<(usize, Vec3, Option<ncsmooth::path::ExtraAxes>, bool)> =
-        (1..moves.len().saturating_sub(1))
-            .filter_map(|k| {
-                let (prev, m, next) = (moves[k - 1], moves[k], moves[k + 1]);
-                let lines = !matches!(m.segment, Segment::Line(_));
-                let plain = !prev.pinned && !m.pinned && !next.pinned;
-                if !(lines
-                    && plain
-                    && next.line > m.line + 1
-                    && verbatim_between(m.line, next.line)
-                    && m.segment.arclen(RETAG_ARCLEN_ACCURACY_MM) < 2.0 * floor.min_block_mm)
-                {
-                    return None;
-                }
-                let v = vertex_after(m.line)?;
-                let corner = v.segment.end();
-                let reach = floor.tol_mm + floor.min_block_mm;
-                (corner.dist(m.segment.start()) <= reach && corner.dist(m.segment.end()) <= reach)
-                    .then_some((
-                        k,
-                        corner,
-                        v.extra,
-                        matches!(prev.segment, Segment::Line(_)) && prev.line == m.line,
-                    ))
-            })
-            .collect();
+    let corners: Vec<(usize, Vec3, Option<ncsmooth::path::ExtraAxes>, bool)> = (1..moves
+        .len()
+        .saturating_sub(1))
+        .filter_map(|k| {
+            let (prev, m, next) = (moves[k - 1], moves[k], moves[k + 1]);
+            let lines = !matches!(m.segment, Segment::Line(_));
+            let plain = !prev.pinned && !m.pinned && !next.pinned;
+            if !(lines
+                && plain
+                && next.line > m.line + 1
+                && verbatim_between(m.line, next.line)
+                && m.segment.arclen(RETAG_ARCLEN_ACCURACY_MM) < 2.0 * floor.min_block_mm)
+            {
+                return None;
+            }
+            let v = vertex_after(m.line)?;
+            let corner = v.segment.end();
+            // The transition rounds that corner: it starts on the (straight) move ending
+            // there and ends on the (straight) move starting there, so the lines that
+            // replace it stay within the tolerance of them (distance to a line is
+            // convex).
+            let dist = |seg: &Segment, p: Vec3| {
+                seg.nearest(p, RETAG_ARCLEN_ACCURACY_MM).distance_sq.sqrt()
+            };
+            let starts_on = dist(&v.segment, m.segment.start()) <= floor.tol_mm;
+            let after = first_of(next.line)?;
+            if !matches!(v.segment, Segment::Line(_)) || !matches!(after.segment, Segment::Line(_))
+            {
+                return None;
+            }
+            let ends_on = after.segment.start().dist(corner) <= RETAG_ARCLEN_ACCURACY_MM
+                && dist(&after.segment, m.segment.end()) <= floor.tol_mm;
+            (starts_on && ends_on).then_some((
+                k,
+                corner,
+                v.extra,
+                matches!(prev.segment, Segment::Line(_)) && prev.line == m.line,
+            ))
+        })
+        .collect();
     if corners.is_empty() {
         return None;
     }
