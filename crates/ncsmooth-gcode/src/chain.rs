@@ -15,9 +15,12 @@
 //!    move end being a dense point;
 //! 2. from the last written point `a`, the block is extended to dense point `j` while every
 //!    dense point between them lies within `chord - dense` of the segment from `a` to the
-//!    *rounded* `j` (the point as it will be printed), with projections in order along it;
+//!    *rounded* `j` (the point as it will be printed), with projections in order along it
+//!    (a step back shorter than the tolerance is a wiggle, not a reversal);
 //! 3. points where the dense polyline turns by more than [`BREAK_TURN_DEG`] (a sharp
-//!    corner the smoothing left) are always written, so corners are never cut;
+//!    corner the smoothing left) are always written, so corners are never cut; the turn
+//!    is measured over the tolerance, so a cluster of sub-micrometre steps (a CAM file's
+//!    quantisation) is one corner at most, not one block per step;
 //! 4. a last block shorter than `min_block_mm` is merged into the one before when that
 //!    stays within tolerance, or the two share their span at its middle dense point.
 //!
@@ -31,8 +34,9 @@
 //! accuracy) lies within `chord` of the written polyline and every written point within
 //! `chord` of the curve, rounding included; the proof is the convexity of the distance to
 //! a segment (dense chords between two points within `t` of a segment stay within `t`)
-//! and the ordered projections (each written segment is covered by the dense chords whose
-//! projections bracket it).
+//! and the projections running from one end to the other (each point of a written
+//! segment lies between the projections of two consecutive dense points, whatever their
+//! order, so a point of their chord is within `t` of it).
 
 use ncsmooth::geom::Vec3;
 
@@ -59,38 +63,95 @@ fn seg_dist(p: Vec3, a: Vec3, b: Vec3) -> (f64, f64) {
 }
 
 /// Whether the dense points strictly between `from` and `to` lie within `tol` of the
-/// segment `a`-`b`, with projections in order and inside it.
+/// segment `a`-`b`, with projections in order and inside it. "In order" allows a step
+/// back of up to `tol` behind the farthest projection so far: a cluster of
+/// nanometre steps in arbitrary directions (a CAM file's own quantisation, e.g.
+/// camotics_vcarve's 1e-6 inch moves) is a wiggle within the tolerance, not a reversal,
+/// and the coverage argument of the module doc holds for any order (each written point
+/// lies between the projections of two consecutive dense points). A reversal longer
+/// than `tol` (a peck's retract) still ends the block.
 fn fits(dense: &[Vec3], from: usize, to: usize, a: Vec3, b: Vec3, tol: f64) -> bool {
-    let mut last_t = 0.0;
+    let len = a.dist(b);
+    let back = if len > 0.0 { tol / len } else { 0.0 };
+    let mut far_t: f64 = 0.0;
     for &p in &dense[from + 1..to] {
         let (d, t) = seg_dist(p, a, b);
-        if d > tol || t < last_t || t > 1.0 {
+        if d > tol || t < far_t - back || t > 1.0 + back {
             return false;
         }
-        last_t = t;
+        far_t = far_t.max(t);
     }
     true
 }
 
 /// Sharp turns of the dense polyline: `hard[k]` when the polyline turns at `k` by more
-/// than [`BREAK_TURN_DEG`]. The first and last points are always hard.
-pub fn sharp_points(dense: &[Vec3]) -> Vec<bool> {
+/// than [`BREAK_TURN_DEG`]. The turn is measured between the chords to the nearest dense
+/// points at least `span_mm` away on either side (at most [`MAX_SPAN_POINTS`] points
+/// away), and of sharp points closer than `span_mm` to each other along the polyline only
+/// the sharpest is hard: a cluster of sub-micrometre steps in arbitrary directions is
+/// not a corner, and writing each of its points gave blocks of one written unit turning
+/// 90 degrees (camotics_vcarve on LinuxCNC: 0.0003 mm blocks, each capped at 0.25 mm/s).
+/// With `span_mm = 0` every turn between neighbours counts. The first and last points are
+/// always hard.
+pub fn sharp_points(dense: &[Vec3], span_mm: f64) -> Vec<bool> {
     let cos_break = BREAK_TURN_DEG.to_radians().cos();
     let n = dense.len();
     let mut hard = vec![false; n];
-    if n > 0 {
-        hard[0] = true;
-        hard[n - 1] = true;
+    if n == 0 {
+        return hard;
     }
+    hard[0] = true;
+    hard[n - 1] = true;
+    // The sharpest point of the current cluster (index, cosine of its turn) and the arc
+    // length of the cluster's last sharp point.
+    let mut cluster: Option<(usize, f64)> = None;
+    let (mut s, mut last_sharp_s) = (0.0, f64::NEG_INFINITY);
     for k in 1..n.saturating_sub(1) {
-        let u = dense[k] - dense[k - 1];
-        let v = dense[k + 1] - dense[k];
-        let (lu, lv) = (u.norm(), v.norm());
-        if lu > 0.0 && lv > 0.0 && u.dot(v) < cos_break * lu * lv {
-            hard[k] = true;
+        s += dense[k].dist(dense[k - 1]);
+        let Some(cos) = turn_cos(dense, k, span_mm) else {
+            continue;
+        };
+        if cos >= cos_break {
+            continue;
         }
+        match cluster {
+            Some((_, c)) if s - last_sharp_s < span_mm => {
+                if cos < c {
+                    cluster = Some((k, cos));
+                }
+            }
+            _ => {
+                if let Some((b, _)) = cluster {
+                    hard[b] = true;
+                }
+                cluster = Some((k, cos));
+            }
+        }
+        last_sharp_s = s;
+    }
+    if let Some((b, _)) = cluster {
+        hard[b] = true;
     }
     hard
+}
+
+/// Cosine of the turn at dense point `k` between the chords from the nearest point at
+/// least `span_mm` before it and to the nearest at least `span_mm` after it (the ends, or
+/// [`MAX_SPAN_POINTS`] away, when none is that far); `None` when a chord is empty.
+fn turn_cos(dense: &[Vec3], k: usize, span_mm: f64) -> Option<f64> {
+    let p = dense[k];
+    let lo = k.saturating_sub(MAX_SPAN_POINTS);
+    let hi = (k + MAX_SPAN_POINTS).min(dense.len() - 1);
+    let i = (lo..k)
+        .rev()
+        .find(|&i| dense[i].dist(p) >= span_mm)
+        .unwrap_or(lo);
+    let j = (k + 1..=hi)
+        .find(|&j| dense[j].dist(p) >= span_mm)
+        .unwrap_or(hi);
+    let (u, v) = (p - dense[i], dense[j] - p);
+    let (lu, lv) = (u.norm(), v.norm());
+    (lu > 0.0 && lv > 0.0).then(|| u.dot(v) / (lu * lv))
 }
 
 /// Cuts `dense` (starting at the already written point `dense[0]`) into the longest
@@ -592,7 +653,7 @@ mod tests {
         // Radius 10 mm, flattened at 1e-5 mm: chords of 0.028 mm. Within 1e-3 mm a
         // chord may be sqrt(8 r t) = 0.28 mm long.
         let dense = arc_points(10.0, 1.0, 360);
-        let hard = sharp_points(&dense);
+        let hard = sharp_points(&dense, 1e-3);
         let mut out = Vec::new();
         simplify(&dense, &hard, 1e-3, 0.0, |p| p, &mut out);
         assert!(out.len() < 60, "{} blocks", out.len());
@@ -611,11 +672,67 @@ mod tests {
             Vec3::new(1.0, 1e-4, 0.0),
             Vec3::new(1.0, 1.0, 0.0),
         ];
-        let hard = sharp_points(&dense);
+        let hard = sharp_points(&dense, 1e-3);
         assert!(hard[1] && !hard[2]);
         let mut out = Vec::new();
         simplify(&dense, &hard, 1e-3, 0.0, |p| p, &mut out);
         assert!(out.contains(&dense[1]), "{out:?}");
+    }
+
+    /// A straight cut with, in its middle, a cluster of 20 steps of 25-100 nm in
+    /// quantised directions (camotics_vcarve's 1e-6 inch moves), written to 1e-5 inch.
+    fn vcarve_like_cluster() -> Vec<Vec3> {
+        let inch = 25.4;
+        let mut dense: Vec<Vec3> = (0..=10)
+            .map(|k| Vec3::new(0.2837, 0.1070 + k as f64 * 1.2e-4, -0.016) * inch)
+            .collect();
+        let steps = [
+            (0, 1),
+            (1, 1),
+            (0, 1),
+            (0, 1),
+            (1, 2),
+            (0, 1),
+            (1, 2),
+            (0, 2),
+            (1, 3),
+        ];
+        let mut p = *dense.last().unwrap();
+        for k in 0..20 {
+            let (dx, dy) = steps[k % steps.len()];
+            p += Vec3::new(dx as f64, dy as f64, 0.0) * (1e-6 * inch);
+            dense.push(p);
+        }
+        let end = Vec3::new(0.2851, 0.1165, -0.0162) * inch;
+        dense.extend((1..=10).map(|k| p + (end - p) * (k as f64 / 10.0)));
+        dense
+    }
+
+    #[test]
+    fn a_cluster_of_nanometre_steps_is_not_a_corner() {
+        let dense = vcarve_like_cluster();
+        let (tol, unit) = (7.5e-4, 2.54e-4);
+        let round = |p: Vec3| {
+            let r = |x: f64| (x / unit).round() * unit;
+            Vec3::new(r(p.x), r(p.y), r(p.z))
+        };
+        let hard = sharp_points(&dense, tol);
+        assert_eq!(hard.iter().filter(|&&h| h).count(), 2, "{hard:?}");
+        let mut out = Vec::new();
+        simplify(&dense, &hard, tol, 0.0, round, &mut out);
+        let mut written = vec![round(dense[0])];
+        written.extend_from_slice(&out);
+        let shortest = written
+            .windows(2)
+            .map(|w| w[0].dist(w[1]))
+            .fold(f64::INFINITY, f64::min);
+        // Before: every step of the cluster was written, 0.000254 mm blocks turning 90
+        // degrees.
+        assert!(written.len() <= 4 && shortest > 0.01, "{written:?}");
+        assert!(one_sided(&dense, &written) <= tol + unit);
+        assert!(one_sided(&written, &dense) <= tol + unit);
+        // The turn between neighbours still counts when asked for.
+        assert!(sharp_points(&dense, 0.0).iter().filter(|&&h| h).count() > 3);
     }
 
     #[test]
@@ -636,7 +753,7 @@ mod tests {
     fn a_flattened_circle_becomes_arcs() {
         // 360 lines of a radius-10 circle (chords 0.17 mm) within 1e-3 mm: a few arcs.
         let dense = arc_points(10.0, 6.0, 360);
-        let hard = sharp_points(&dense);
+        let hard = sharp_points(&dense, 1e-3);
         let mut out = Vec::new();
         fit_arcs(&dense, &hard, 1e-3, |p| p, &mut out);
         let arcs = out
@@ -658,7 +775,7 @@ mod tests {
             .map(|k| Vec3::new(k as f64 * 0.1, 0.0, 0.0))
             .collect();
         let mut out = Vec::new();
-        fit_arcs(&line, &sharp_points(&line), 1e-3, |p| p, &mut out);
+        fit_arcs(&line, &sharp_points(&line, 1e-3), 1e-3, |p| p, &mut out);
         assert_eq!(
             out,
             vec![Piece::Line {
@@ -690,7 +807,7 @@ mod tests {
                 Vec3::new((p.x / unit).round() * unit, (p.y / unit).round() * unit,
                     (p.z / unit).round() * unit)
             };
-            let hard = sharp_points(&dense);
+            let hard = sharp_points(&dense, tol);
             let mut out = Vec::new();
             simplify(&dense, &hard, tol, 0.1, round, &mut out);
             prop_assert_eq!(*out.last().unwrap(), round(*dense.last().unwrap()));
@@ -717,7 +834,7 @@ mod tests {
                 p.z = lift * k as f64 / n as f64;
             }
             use ncsmooth::geom::{Arc, Line, ParamCurve, ParamCurveNearest, Segment};
-            let hard = sharp_points(&dense);
+            let hard = sharp_points(&dense, tol);
             let mut out = Vec::new();
             fit_arcs(&dense, &hard, tol, |p| p, &mut out);
             let mut pieces: Vec<Segment> = Vec::new();

@@ -848,10 +848,10 @@ impl MotionWriter {
                 s => s.flatten(dense_tol, &mut push),
             }
         }
-        let hard = crate::chain::sharp_points(&dense);
         // Lines are their own dense points: merging may use the whole chord.
         let all_lines = moves.iter().all(|m| matches!(m.segment, Segment::Line(_)));
         let tol = if all_lines { chord } else { chord - dense_tol };
+        let hard = crate::chain::sharp_points(&dense, tol);
         let r = if arcs {
             self.write_arc_pieces(moves[0], &dense, &hard, tol, out)
         } else {
