@@ -21,6 +21,7 @@ errors and the shortest block grbl executed (4 steps at its 250 steps/mm are 0.0
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -76,6 +77,30 @@ def smooth(src, out, method, emit, dialect, a):
         return json.load(f)
 
 
+G64_WORD = re.compile(r"G0*64(?![0-9.])([^(;\r\n]*)", re.IGNORECASE)
+
+
+def with_blending_at(src, tol_mm, tmp):
+    """The input as the baseline runs it: `G64 P<tol>` (LinuxCNC's Q defaults to P).
+
+    A program that sets its own `G64` (camotics_vcarve: `G64 P0.001` in inches, 0.0254 mm)
+    would override the prepended one; its own are set to the same bound, in its units.
+    Returns (path, note) - the source itself when it sets no G64.
+    """
+    with open(src, newline="") as f:
+        text = f.read()
+    if not G64_WORD.search(text):
+        return src, ""
+    inch = re.search(r"G0*20(?![0-9.])", text, re.IGNORECASE) is not None
+    tol = tol_mm / 25.4 if inch else tol_mm
+    own = sorted(set(m.group(0).strip() for m in G64_WORD.finditer(text)))
+    fixed = G64_WORD.sub(lambda m: f"G64 P{tol:.6f} Q{tol:.6f}", text)
+    out = os.path.join(tmp, os.path.basename(src) + ".g64.ngc")
+    with open(out, "w", newline="") as f:
+        f.write(fixed)
+    return out, f"its own {', '.join(own)} set to P{tol:.6f}{' in' if inch else ''}"
+
+
 def ratio(x, base):
     if not x or not base:
         return "-"
@@ -102,7 +127,10 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|---|")
     for src in files:
         name = os.path.basename(src)
-        lc_in = {} if a.no_linuxcnc else linuxcnc(src, a, ref=src, p=a.tol)
+        base, note = with_blending_at(src, a.tol, tmp)
+        if note:
+            print(f"({name}: the input runs with {note})")
+        lc_in = {} if a.no_linuxcnc else linuxcnc(base, a, ref=src, p=a.tol)
         gr_in = grbl(src, a)
         lc_t, gr_t = lc_in.get("cycle_time_s"), gr_in.get("cycle_time_s")
         dev_in = max(lc_in.get("dev_path_to_ref_max_mm", 0), lc_in.get("dev_ref_to_path_max_mm", 0))
