@@ -38,7 +38,16 @@
 //!    `x_env <= min_k cap_k + 2 U len`. On a short, tight transition that is far below
 //!    `vcap^2`, and the flanks, where the curvature rises from zero, need fewer octaves
 //!    of bisection (linuxcnc_stellabee1, `--method bspline`: 6.7 M grid points became
-//!    5.4 M, the cycle time within 0.02 %).
+//!    5.4 M, the cycle time within 0.02 %);
+//! 4. in jerk mode, the curvature rate: the jerk caps take it as the finite difference of
+//!    the curvature over each interval ([`super::jerk`]), which is its mean there, while
+//!    the jerk the setpoints show is `v^3` times its peak. A half whose two halves' rates
+//!    differ by `d` is bisected while `x_env^1.5 d / 2 > `[`RATE_BEND_SHARE`]` J_i` and it
+//!    is longer than a period's travel at `x_env` (shorter, the finite differences see one
+//!    step, and its mean rate times `v^3` exceeds that step's `v^2 dK / T`). Terms
+//!    1-3 scale with the acceleration, which is small at a low feed: camotics_tiger at 3.73
+//!    mm/s left an S-shaped 0.015 mm transition (curvature +0.6 to -0.5 /mm in Z) as two
+//!    intervals, whose mean rates missed its peak (`--jerk 5000` measured 5235 mm/s^3).
 //!
 //! The midpoint check halves the number of grid intervals against checking the ends
 //! only (the halves are what the terms bound), at the price of coarser `x` (linear over
@@ -108,6 +117,9 @@ pub const PRODUCT_SHARE: f64 = 0.004;
 /// chord of its end values, relative to the local curvature or the floor (term 3 of the
 /// module doc).
 pub const MAX_CURVATURE_BEND: f64 = 0.004;
+/// Share of each axis's jerk limit allowed for the curvature rate a grid interval does
+/// not resolve (term 4 of the module doc, jerk mode only).
+pub const RATE_BEND_SHARE: f64 = 0.01;
 /// Smallest parameter step of the interval refinement.
 const MIN_PARAM_STEP: f64 = 1e-9;
 /// Parameter offset used to read the curvature next to a zero-speed end.
@@ -1354,6 +1366,28 @@ fn refine(
         let f = if a + b > 0.0 { a / (a + b) } else { 0.5 };
         (q.2 - (l.2 * (1.0 - f) + r.2 * f)).norm() > lim
     };
+    // Term 4 on one half (jerk mode): the curvature rates of its two halves, against the
+    // jerk `x_env^1.5` times their difference makes.
+    let v3 = x_env.max(0.0).powf(1.5);
+    let rate_room = caps
+        .jerk
+        .as_ref()
+        .filter(|_| v3.is_finite() && v3 > 0.0)
+        .map(|j| j.jerk_mm_s3.map(|ji| RATE_BEND_SHARE * ji / v3));
+    // A half shorter than a period's travel is one step to the finite differences: its
+    // rate is not resolved further (the mean over it already exceeds the step it makes).
+    let rate_min_ds = x_env.max(0.0).sqrt() * caps.period_s;
+    let rate_bent = |l: &Sample, r: &Sample, q: &Sample| {
+        let Some(room) = rate_room else {
+            return false;
+        };
+        let (a, b) = (l.3.dist(q.3), q.3.dist(r.3));
+        if a <= 0.0 || b <= 0.0 || a + b < rate_min_ds {
+            return false;
+        }
+        let d = (q.2 - l.2) / a - (r.2 - q.2) / b;
+        (0..3).any(|i| 0.5 * d[i].abs() > room[i])
+    };
     while let Some(&(right, known_mid)) = stack.last() {
         let left = *params.last().expect("non-empty");
         let (t0, t1) = (left.0, right.0);
@@ -1368,7 +1402,10 @@ fn refine(
             if !bad {
                 let a = sample(t0 + 0.25 * (t1 - t0));
                 let b = sample(t0 + 0.75 * (t1 - t0));
-                bad = bent(&left, &mid, &a) || bent(&mid, &right, &b);
+                bad = bent(&left, &mid, &a)
+                    || bent(&mid, &right, &b)
+                    || rate_bent(&left, &mid, &a)
+                    || rate_bent(&mid, &right, &b);
                 (q1, q3) = (Some(a), Some(b));
             }
         }
