@@ -33,7 +33,7 @@ TOOLS = os.path.join(SHARED, "tools")
 DEFAULT_FILES = [
     "data/profiles/butterfly_1000.ngc",
     "data/profiles/crown.ngc",
-    "data/gcode/linuxcnc_rgh.ngc",
+    "data/gcode/linuxcnc_blur_torus.ngc",
     "data/gcode/camotics_vcarve.ngc",
     "data/gcode/cncjs_jsdc.gcode",
 ]
