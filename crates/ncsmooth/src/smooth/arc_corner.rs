@@ -32,6 +32,11 @@
 //!   emitted (its direction would be round-off).
 //! * Zero-length moves (shorter than [`DEGENERATE_MM`]) carry no direction: they are
 //!   skipped and the corner is formed by their neighbours.
+//! * Micro-legs (lines no longer than [`MICRO_LEG_SHARE`]` tol`, a CAM file's quantisation
+//!   such as camotics_vcarve's 1e-6 inch steps) between two longer lines are one corner at
+//!   the run's middle point, the transitions' tolerance reduced by the shift; each of their
+//!   corners would need an arc below `min_radius_mm` and stop (camotics_vcarve: 99 stops
+//!   became 76, ugs_Gates_combined_R12: 96 became 66).
 //! * Reversals: as `beta -> 180 deg`, `R -> 0`. A turn whose legs span no plane (exact
 //!   reversal) or whose arc would be smaller than [`ArcOptions::min_radius_mm`] (about 179
 //!   degrees and above at tol 0.01 mm) is kept as an exact stop and counted in
@@ -58,6 +63,12 @@ pub const CORNER_TOL_SHARE: f64 = 1.0 - 1e-6;
 /// [`crate::verify::GAP_TOL_MM`]. Its direction would be round-off (at 1e5 mm coordinates the
 /// last bit is 1.5e-11 mm), i.e. a spurious tangent break.
 pub const MIN_STRAIGHT_MM: f64 = 0.5 * crate::verify::GAP_TOL_MM;
+
+/// Longest line (as a share of the tolerance) that counts as a micro-leg: a run of such
+/// lines between two longer ones is one corner at the run's middle point (its transition
+/// takes the largest distance of the run's points from that point, at most this share,
+/// from its tolerance; see the module doc).
+pub const MICRO_LEG_SHARE: f64 = 0.02;
 
 /// Settings of `--method arc` (and of the corners of `--method nurbs`).
 #[derive(Clone, Debug, PartialEq)]
@@ -320,6 +331,94 @@ pub(crate) fn blend_items(
     out
 }
 
+/// Merges every run of micro-legs (lines no longer than `micro_mm`, a CAM file's
+/// quantisation: camotics_vcarve's 1e-6 inch steps in arbitrary directions) lying between
+/// two longer lines into one corner: the line before ends, and the line after starts, at
+/// the point halfway along the run. Each corner of such a run needed an arc of a few
+/// nanometres, below [`ArcOptions::min_radius_mm`], and was kept as an exact stop (99 on
+/// camotics_vcarve). The merged path is within the returned shift (the largest distance of
+/// a run's points from its middle point, at most `micro_mm`) of the programmed one both
+/// ways, by convexity: the moved lines' ends move by at most that. The transitions take
+/// the shift from their tolerance. Runs at either end of the items are kept.
+pub(crate) fn merge_micro_legs(items: &mut Vec<Item>, micro_mm: f64) -> f64 {
+    let len = |it: &Item| match it {
+        Item::Line { p0, p1, .. } => Some(p0.dist(*p1)),
+        Item::Fixed { .. } => None,
+    };
+    let is_micro = |it: &Item| len(it).is_some_and(|l| l <= micro_mm);
+    let is_long = |it: &Item| len(it).is_some_and(|l| l > micro_mm);
+    let mut shift: f64 = 0.0;
+    let mut out: Vec<Item> = Vec::with_capacity(items.len());
+    let mut i = 0;
+    while i < items.len() {
+        let run_end = (i..items.len())
+            .find(|&j| !is_micro(&items[j]))
+            .unwrap_or(items.len());
+        let merged = run_end > i
+            && out.last().is_some_and(is_long)
+            && items.get(run_end).is_some_and(is_long)
+            && merge_run(&items[i..run_end], &mut out, &items[run_end], micro_mm)
+                .map(|d| shift = shift.max(d))
+                .is_some();
+        if merged {
+            // `merge_run` pushed the line after the run, its start moved.
+            i = run_end + 1;
+        } else {
+            out.push(items[i].clone());
+            i += 1;
+        }
+    }
+    *items = out;
+    shift
+}
+
+/// One run of [`merge_micro_legs`]: moves the end of `out`'s last line and the start of
+/// `next` (pushed to `out`) to the run's middle point. `None` (nothing changed) when the
+/// pieces do not connect or a run point lies farther than `micro_mm` from the middle.
+fn merge_run(run: &[Item], out: &mut Vec<Item>, next: &Item, micro_mm: f64) -> Option<f64> {
+    let pts: Vec<Vec3> = std::iter::once(run.first()?)
+        .map(|it| match it {
+            Item::Line { p0, .. } => *p0,
+            Item::Fixed { .. } => unreachable!("runs hold lines"),
+        })
+        .chain(run.iter().map(|it| match it {
+            Item::Line { p1, .. } => *p1,
+            Item::Fixed { .. } => unreachable!("runs hold lines"),
+        }))
+        .collect();
+    let total: f64 = pts.windows(2).map(|w| w[0].dist(w[1])).sum();
+    let mut walked = 0.0;
+    let mut mid = pts[0];
+    for w in pts.windows(2) {
+        let l = w[0].dist(w[1]);
+        if walked + l >= 0.5 * total && l > 0.0 {
+            mid = w[0] + (w[1] - w[0]) * ((0.5 * total - walked) / l);
+            break;
+        }
+        walked += l;
+    }
+    let shift = pts.iter().map(|p| p.dist(mid)).fold(0.0, f64::max);
+    let (Some(Item::Line { p1: prev_end, .. }), Item::Line { p0: next_start, .. }) =
+        (out.last(), next)
+    else {
+        return None;
+    };
+    let joined = prev_end.dist(pts[0]) <= crate::verify::GAP_TOL_MM
+        && next_start.dist(pts[pts.len() - 1]) <= crate::verify::GAP_TOL_MM;
+    if !joined || shift > micro_mm {
+        return None;
+    }
+    if let Some(Item::Line { p1, .. }) = out.last_mut() {
+        *p1 = mid;
+    }
+    let mut next = next.clone();
+    if let Item::Line { p0, .. } = &mut next {
+        *p0 = mid;
+    }
+    out.push(next);
+    Some(shift)
+}
+
 /// The items of a chain for `--method arc`: every non-degenerate move, lines trimmable
 /// by half (eq. 12), everything else fixed.
 fn arc_items(chain: &Chain<'_>) -> Vec<Item> {
@@ -348,13 +447,14 @@ fn arc_items(chain: &Chain<'_>) -> Vec<Item> {
 
 /// `--method arc` on one chain.
 pub fn smooth_arc(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
-    let items = arc_items(chain);
+    let mut items = arc_items(chain);
     if items.is_empty() {
         return super::passthrough(chain);
     }
+    let shift = merge_micro_legs(&mut items, opts.tol_mm * MICRO_LEG_SHARE);
     let pieces = blend_items(
         &items,
-        opts.tol_mm,
+        opts.tol_mm - shift,
         opts.straight_angle_deg,
         &opts.arc,
         report,
@@ -574,6 +674,45 @@ mod tests {
         ));
         assert_eq!(crate::verify::continuity(&s.toolpath).g0, 0);
         assert!(deviation(&s.toolpath, &tp, 1e-5).max_mm() <= 0.01);
+    }
+
+    #[test]
+    fn micro_legs_between_two_lines_are_one_corner() {
+        // A long line, a cluster of 25-75 nm steps in quantised directions (camotics_vcarve's
+        // 1e-6 inch moves), then a line turning by 30 degrees: each corner of the cluster
+        // needed an arc far below min_radius_mm and stopped; merged, the cluster is one
+        // corner at its middle point with an ordinary arc.
+        let q = 2.54e-5;
+        let mut pts = vec![Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0)];
+        for (dx, dy) in [(1.0, 1.0), (0.0, 1.0), (1.0, 0.0), (2.0, 1.0), (1.0, 2.0)] {
+            let last = *pts.last().unwrap();
+            pts.push(last + Vec3::new(dx, dy, 0.0) * q);
+        }
+        let turn = 30f64.to_radians();
+        let last = *pts.last().unwrap();
+        pts.push(last + Vec3::new(turn.cos(), turn.sin(), 0.0) * 5.0);
+        let tol = 0.01;
+        let tp = Toolpath::from_polyline(&pts, Some(10.0));
+        let prog: Vec<Move> = tp.moves().cloned().collect();
+        let chain = Chain {
+            moves: &prog,
+            start_extra: None,
+            open_ends: [false; 2],
+        };
+        let mut unmerged = SmoothReport::default();
+        blend_items(
+            &arc_items(&chain),
+            tol,
+            0.01,
+            &ArcOptions::default(),
+            &mut unmerged,
+        );
+        assert!(unmerged.corners_stopped > 0, "{unmerged:?}");
+        let s = smooth(&tp, &arc_opts(tol)).unwrap();
+        assert_eq!(s.report.corners_stopped, 0, "{:?}", s.report);
+        assert_eq!(crate::verify::continuity(&s.toolpath).g0, 0);
+        assert!(deviation(&s.toolpath, &tp, 1e-6).max_mm() <= tol);
+        check_polyline(&pts, tol);
     }
 
     fn polyline_strategy() -> impl Strategy<Value = (Vec<Vec3>, f64)> {

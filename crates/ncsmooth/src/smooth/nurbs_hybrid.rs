@@ -48,7 +48,9 @@
 //! Report: `runs_fitted` counts the emitted curves (after splitting), `points_per_run` and
 //! `fit_deviation_per_run_mm` (the measured deviation) are given per emitted curve.
 
-use super::arc_corner::{blend_items, tangent_length, Item, CORNER_TOL_SHARE};
+use super::arc_corner::{
+    blend_items, merge_micro_legs, tangent_length, Item, CORNER_TOL_SHARE, MICRO_LEG_SHARE,
+};
 use super::band_fit::{band_fit, EndCond};
 use super::run_mode::neighbour;
 use super::screen::{screen, Run, ScreenOptions};
@@ -390,9 +392,10 @@ pub fn smooth_nurbs(
     if items.is_empty() {
         return super::passthrough(chain);
     }
+    let shift = merge_micro_legs(&mut items, opts.tol_mm * MICRO_LEG_SHARE);
     let pieces = blend_items(
         &items,
-        opts.tol_mm,
+        opts.tol_mm - shift,
         opts.straight_angle_deg,
         &opts.arc,
         report,
