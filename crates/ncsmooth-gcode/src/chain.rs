@@ -451,29 +451,162 @@ impl Program<'_> {
     }
 
     /// Starts of the programmed segments whose box comes within `margin` of the box of
-    /// `a`-`b`.
-    fn near(&self, a: Vec3, b: Vec3, margin: f64, out: &mut Vec<usize>) {
-        out.clear();
-        let (lo, hi) = (
-            a.min(b) - Vec3::new(margin, margin, margin),
-            a.max(b) + Vec3::new(margin, margin, margin),
-        );
-        for (k, w) in self.points.windows(2).enumerate() {
-            let (plo, phi) = (w[0].min(w[1]), w[0].max(w[1]));
-            if plo.min(hi) == plo && phi.max(lo) == phi {
-                out.push(k);
-            }
+    /// `a`-`b` (the grid's candidates, or all segments when it has none to give).
+    fn near(&self, grid: &SegGrid, a: Vec3, b: Vec3, margin: f64, out: &mut Vec<usize>) {
+        let pad = Vec3::new(margin, margin, margin);
+        let (lo, hi) = (a.min(b) - pad, a.max(b) + pad);
+        if !grid.candidates(lo, hi, out) {
+            out.clear();
+            out.extend(0..self.points.len().saturating_sub(1));
         }
+        let pts = self.points;
+        out.retain(|&k| {
+            let (plo, phi) = (pts[k].min(pts[k + 1]), pts[k].max(pts[k + 1]));
+            plo.min(hi) == plo && phi.max(lo) == phi
+        });
     }
 
     /// Whether every point of the segment `a`-`b` lies within the tolerance of the
     /// programmed path.
-    fn covers(&self, a: Vec3, b: Vec3, scratch: &mut Vec<usize>) -> bool {
+    fn covers(&self, grid: &SegGrid, a: Vec3, b: Vec3, scratch: &mut Vec<usize>) -> bool {
         let step = self.tol_mm / SAMPLES_PER_TOL;
         let within = self.tol_mm - 0.5 * step;
-        self.near(a, b, self.tol_mm, scratch);
+        self.near(grid, a, b, self.tol_mm, scratch);
         let n = (a.dist(b) / step).ceil().max(1.0) as usize;
         (0..=n).all(|i| self.dist(a + (b - a) * (i as f64 / n as f64), scratch) <= within)
+    }
+
+    /// The programmed vertices inside the box `lo`-`hi`, appended to `out`.
+    fn vertices_in(&self, grid: &SegGrid, lo: Vec3, hi: Vec3, out: &mut Vec<Vec3>) {
+        let inside = |v: &Vec3| v.min(lo) == lo && v.max(hi) == hi;
+        let mut segs = Vec::new();
+        if self.points.len() < 2 || !grid.candidates(lo, hi, &mut segs) {
+            out.extend(self.points.iter().copied().filter(inside));
+            return;
+        }
+        let mut ks: Vec<usize> = segs.iter().flat_map(|&k| [k, k + 1]).collect();
+        ks.sort_unstable();
+        ks.dedup();
+        out.extend(ks.into_iter().map(|k| self.points[k]).filter(inside));
+    }
+
+    /// The programmed vertex nearest to `p`: the grid's candidates in boxes of growing
+    /// size, until the nearest one found lies within the box's half-width (any nearer
+    /// vertex would be in the box).
+    fn nearest_vertex(&self, grid: &SegGrid, p: Vec3) -> Option<Vec3> {
+        let nearest =
+            |c: &mut dyn Iterator<Item = Vec3>| c.min_by(|a, b| a.dist(p).total_cmp(&b.dist(p)));
+        if self.points.len() < 2 {
+            return nearest(&mut self.points.iter().copied());
+        }
+        let mut r = grid.cell;
+        let mut found = Vec::new();
+        loop {
+            let pad = Vec3::new(r, r, r);
+            let mut segs = Vec::new();
+            if !grid.candidates(p - pad, p + pad, &mut segs) {
+                return nearest(&mut self.points.iter().copied());
+            }
+            found.clear();
+            found.extend(
+                segs.iter()
+                    .flat_map(|&k| [self.points[k], self.points[k + 1]]),
+            );
+            if let Some(v) = nearest(&mut found.iter().copied()).filter(|v| v.dist(p) <= r) {
+                return Some(v);
+            }
+            r *= 2.0;
+        }
+    }
+}
+
+/// Largest number of grid cells a programmed segment is entered in; a longer one is a
+/// candidate of every query ([`SegGrid`]).
+const GRID_SEGMENT_CELLS: i64 = 64;
+
+/// Largest number of grid cells a query looks at; a larger box scans every segment.
+const GRID_QUERY_CELLS: i64 = 4096;
+
+/// Uniform grid over a program's segments for [`lift_short_blocks`]: its queries (the
+/// segments near a written block, the vertices near a replacement, the vertex nearest a
+/// block) were linear scans of the run's programmed polyline, and a stepper dialect on
+/// linuxcnc_stellabee1 (one run of most of its 169 k lines) took over ten minutes.
+/// Queries return a superset of the segments whose boxes meet the query box; the callers
+/// apply the exact tests.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct SegGrid {
+    /// Cell size (mm): four tolerances or the mean segment length, the larger.
+    cell: f64,
+    cells: std::collections::HashMap<[i64; 3], Vec<usize>>,
+    /// Segments spanning more than [`GRID_SEGMENT_CELLS`] cells.
+    wide: Vec<usize>,
+}
+
+impl SegGrid {
+    fn new(points: &[Vec3], tol_mm: f64) -> SegGrid {
+        let n = points.len().saturating_sub(1);
+        let total: f64 = points.windows(2).map(|w| w[0].dist(w[1])).sum();
+        let mean = if n > 0 { total / n as f64 } else { 0.0 };
+        let cell = (4.0 * tol_mm).max(mean).max(1e-6);
+        let mut grid = SegGrid {
+            cell,
+            cells: std::collections::HashMap::new(),
+            wide: Vec::new(),
+        };
+        for (k, w) in points.windows(2).enumerate() {
+            let (a, b) = (grid.key(w[0].min(w[1])), grid.key(w[0].max(w[1])));
+            if Self::count(a, b) > GRID_SEGMENT_CELLS {
+                grid.wide.push(k);
+                continue;
+            }
+            for x in a[0]..=b[0] {
+                for y in a[1]..=b[1] {
+                    for z in a[2]..=b[2] {
+                        grid.cells.entry([x, y, z]).or_default().push(k);
+                    }
+                }
+            }
+        }
+        grid
+    }
+
+    fn key(&self, p: Vec3) -> [i64; 3] {
+        let k = |v: f64| (v / self.cell).floor() as i64;
+        [k(p.x), k(p.y), k(p.z)]
+    }
+
+    /// Cells of the box between the keys `a` and `b` (saturating).
+    fn count(a: [i64; 3], b: [i64; 3]) -> i64 {
+        (0..3)
+            .map(|i| b[i].saturating_sub(a[i]).saturating_add(1).max(0))
+            .fold(1i64, |acc, c| acc.saturating_mul(c))
+    }
+
+    /// Candidate segments for the box `lo`-`hi`, sorted and unique, in `out`; `false` when
+    /// the box spans more than [`GRID_QUERY_CELLS`] cells (or is not finite) and the
+    /// caller must scan every segment.
+    fn candidates(&self, lo: Vec3, hi: Vec3, out: &mut Vec<usize>) -> bool {
+        out.clear();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return false;
+        }
+        let (a, b) = (self.key(lo), self.key(hi));
+        if Self::count(a, b) > GRID_QUERY_CELLS {
+            return false;
+        }
+        for x in a[0]..=b[0] {
+            for y in a[1]..=b[1] {
+                for z in a[2]..=b[2] {
+                    if let Some(v) = self.cells.get(&[x, y, z]) {
+                        out.extend_from_slice(v);
+                    }
+                }
+            }
+        }
+        out.extend_from_slice(&self.wide);
+        out.sort_unstable();
+        out.dedup();
+        true
     }
 }
 
@@ -502,6 +635,7 @@ fn replacement_fits(
     hi: usize,
     new: Option<Vec3>,
     program: &Program,
+    grid: &SegGrid,
     scratch: &mut Vec<usize>,
 ) -> bool {
     let first = lo.saturating_sub(CHECK_NEIGHBOURS);
@@ -511,7 +645,7 @@ fn replacement_fits(
     local.extend_from_slice(&poly[hi..=last]);
     let new_from = lo - first;
     let new_to = new_from + 1 + usize::from(new.is_some());
-    if !(new_from..new_to).all(|k| program.covers(local[k], local[k + 1], scratch)) {
+    if !(new_from..new_to).all(|k| program.covers(grid, local[k], local[k + 1], scratch)) {
         return false;
     }
     // The programmed vertices near the replaced blocks: each must stay within the
@@ -525,20 +659,10 @@ fn replacement_fits(
         hi_box = hi_box.max(p);
     }
     let pad = Vec3::new(tol, tol, tol);
-    let (lo_box, hi_box) = (lo_box - pad, hi_box + pad);
-    program
-        .points
-        .iter()
-        .filter(|v| v.min(lo_box) == lo_box && v.max(hi_box) == hi_box)
-        .all(|&v| polyline_dist(v, &local) <= tol || polyline_dist(v, old) > tol)
-}
-
-/// The programmed vertex nearest to `p`.
-fn nearest_vertex(points: &[Vec3], p: Vec3) -> Option<Vec3> {
-    points
-        .iter()
-        .copied()
-        .min_by(|a, b| a.dist(p).total_cmp(&b.dist(p)))
+    let mut near = Vec::new();
+    program.vertices_in(grid, lo_box - pad, hi_box + pad, &mut near);
+    near.into_iter()
+        .all(|v| polyline_dist(v, &local) <= tol || polyline_dist(v, old) > tol)
 }
 
 /// Removes written blocks shorter than `min_block_mm` (a stepper controller's few steps:
@@ -561,6 +685,20 @@ pub fn lift_short_blocks(
     program: &Program,
     round: impl Fn(Vec3) -> Vec3,
 ) -> usize {
+    let grid = std::cell::OnceCell::new();
+    lift_short_blocks_in(start, pts, min_block_mm, program, &grid, round)
+}
+
+/// [`lift_short_blocks`] with the program's grid built on the first short block and kept
+/// in `grid` for the next call on the same program (a run's chains share it).
+pub(crate) fn lift_short_blocks_in(
+    start: Vec3,
+    pts: &mut Vec<Vec3>,
+    min_block_mm: f64,
+    program: &Program,
+    grid: &std::cell::OnceCell<SegGrid>,
+    round: impl Fn(Vec3) -> Vec3,
+) -> usize {
     let mut poly = Vec::with_capacity(pts.len() + 1);
     poly.push(start);
     poly.append(pts);
@@ -575,8 +713,9 @@ pub fn lift_short_blocks(
             continue;
         }
         let n = poly.len();
+        let grid = grid.get_or_init(|| SegGrid::new(program.points, program.tol_mm));
         let mid = (poly[i - 1] + poly[i]) * 0.5;
-        let snap = nearest_vertex(program.points, mid).map(&round);
+        let snap = program.nearest_vertex(grid, mid).map(&round);
         // The block from `fixed` through `free`, lengthened to the floor.
         let stretch = |fixed: usize, free: usize| {
             let d = poly[free] - poly[fixed];
@@ -594,10 +733,9 @@ pub fn lift_short_blocks(
             (i + 1 < n && swaps_left > 0).then(|| (i - 1, i + 1, stretch(i - 1, i))),
             (i >= 2 && swaps_left > 0).then(|| (i - 2, i, stretch(i, i - 1))),
         ];
-        let fit = tries
-            .into_iter()
-            .flatten()
-            .find(|&(lo, hi, new)| replacement_fits(&poly, lo, hi, new, program, &mut scratch));
+        let fit = tries.into_iter().flatten().find(|&(lo, hi, new)| {
+            replacement_fits(&poly, lo, hi, new, program, grid, &mut scratch)
+        });
         match fit {
             Some((lo, hi, new)) => {
                 if hi - lo == 2 && new.is_some() {
@@ -931,6 +1069,58 @@ mod tests {
             "{}",
             one_sided(&out, &program)
         );
+    }
+
+    proptest! {
+        /// The grid's queries give what the linear scans they replace gave: the segments
+        /// near a block, the vertices in a box and the nearest vertex.
+        #[test]
+        fn grid_queries_equal_the_scans(
+            steps in prop::collection::vec((-1.0f64..1.0, -1.0f64..1.0, -0.1f64..0.1), 2..200),
+            scale in prop_oneof![Just(1e-4), Just(0.01), Just(1.0), Just(50.0)],
+            q in (-3.0f64..3.0, -3.0f64..3.0, 0.0f64..0.5),
+            long in 0usize..400,
+        ) {
+            // Mostly short steps; one far longer (a segment spanning many cells, which
+            // every query must still see).
+            let mut pts = vec![Vec3::ZERO];
+            for (k, (x, y, z)) in steps.into_iter().enumerate() {
+                let last = *pts.last().unwrap();
+                let f = if k == long { 300.0 } else { 1.0 };
+                pts.push(last + Vec3::new(x, y, z) * (scale * f));
+            }
+            let prog = Program { points: &pts, tol_mm: 0.01 };
+            let grid = SegGrid::new(&pts, prog.tol_mm);
+            let c = Vec3::new(q.0, q.1, 0.0) * scale.sqrt();
+            let (a, b) = (c, c + Vec3::new(q.2, -q.2, 0.0));
+            let mut got = Vec::new();
+            prog.near(&grid, a, b, prog.tol_mm, &mut got);
+            let pad = Vec3::new(0.01, 0.01, 0.01);
+            let (lo, hi) = (a.min(b) - pad, a.max(b) + pad);
+            let want: Vec<usize> = (0..pts.len() - 1)
+                .filter(|&k| {
+                    let (plo, phi) = (pts[k].min(pts[k + 1]), pts[k].max(pts[k + 1]));
+                    plo.min(hi) == plo && phi.max(lo) == phi
+                })
+                .collect();
+            prop_assert_eq!(got, want);
+            let mut vin = Vec::new();
+            prog.vertices_in(&grid, lo, hi, &mut vin);
+            let mut vwant: Vec<Vec3> = pts
+                .iter()
+                .copied()
+                .filter(|v| v.min(lo) == lo && v.max(hi) == hi)
+                .collect();
+            let key = |v: &Vec3| (v.x.to_bits(), v.y.to_bits(), v.z.to_bits());
+            vin.sort_by_key(key);
+            vin.dedup();
+            vwant.sort_by_key(key);
+            vwant.dedup();
+            prop_assert_eq!(vin, vwant);
+            let near = prog.nearest_vertex(&grid, c).unwrap();
+            let best = pts.iter().map(|v| v.dist(c)).fold(f64::INFINITY, f64::min);
+            prop_assert_eq!(near.dist(c), best);
+        }
     }
 
     proptest! {

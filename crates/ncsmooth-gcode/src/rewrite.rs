@@ -710,6 +710,7 @@ impl<'a> Region<'a> {
                 program: self.program_polyline(orig, f.tol_mm * FLOOR_PROGRAM_SHARE),
                 tol_mm: f.tol_mm * (1.0 - FLOOR_PROGRAM_SHARE),
                 min_block_mm: f.min_block_mm,
+                grid: std::cell::OnceCell::new(),
             });
             self.program = None;
         }

@@ -234,6 +234,8 @@ pub(crate) struct Floor {
     pub tol_mm: f64,
     /// Shortest block the controller should be given (mm).
     pub min_block_mm: f64,
+    /// The grid over `program`, built when a first short block needs it.
+    pub grid: std::cell::OnceCell<crate::chain::SegGrid>,
 }
 
 /// How a [`MotionWriter`] writes: units, modes and which axes it may write.
@@ -889,9 +891,14 @@ impl MotionWriter {
                 tol_mm: f.tol_mm,
             };
             let start = self.written_pos();
-            crate::chain::lift_short_blocks(start, &mut pts, f.min_block_mm, &program, |p| {
-                self.rounded(p)
-            });
+            crate::chain::lift_short_blocks_in(
+                start,
+                &mut pts,
+                f.min_block_mm,
+                &program,
+                &f.grid,
+                |p| self.rounded(p),
+            );
             self.floor = Some(f);
         }
         pts.into_iter()
