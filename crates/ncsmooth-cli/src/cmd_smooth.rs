@@ -372,7 +372,7 @@ impl BlockReport {
         if let Some(max) = dialect.max_line_len() {
             for (i, l) in out.split(|&c| c == b'\n').enumerate() {
                 let l = l.strip_suffix(b"\r").unwrap_or(l);
-                if l.len() > max {
+                if dialect.stored_len(l) > max {
                     long_lines += 1;
                     if first_long_line == 0 {
                         first_long_line = i + 1;

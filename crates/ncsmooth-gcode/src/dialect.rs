@@ -126,14 +126,41 @@ impl Dialect {
         self == Dialect::LinuxCnc
     }
 
-    /// Longest line (characters) the controller reads, if it has a limit.
+    /// Longest line the controller reads, if it has a limit, in the characters it keeps
+    /// ([`Dialect::stored_len`]): grbl 1.1's line buffer is `LINE_BUFFER_SIZE` = 80 bytes,
+    /// a terminating zero included, so 79 characters (protocol.c flags an overflow at the
+    /// 80th).
     pub fn max_line_len(self) -> Option<usize> {
         match self {
             Dialect::LinuxCnc | Dialect::GrblHal => Some(256),
-            Dialect::Grbl => Some(80),
+            Dialect::Grbl => Some(79),
             Dialect::Marlin => Some(96),
             Dialect::Klipper | Dialect::Generic => None,
         }
+    }
+
+    /// Characters of a written line the controller keeps in its line buffer: grbl and
+    /// grblHAL drop whitespace, control characters, `/` and comments (`(...)` and `;` to
+    /// the end) as they read a line (grbl 1.1 protocol.c), so a long comment, such as the
+    /// provenance line after the program end, does not overflow it; other controllers are
+    /// counted as written.
+    pub fn stored_len(self, line: &[u8]) -> usize {
+        if !matches!(self, Dialect::Grbl | Dialect::GrblHal) {
+            return line.len();
+        }
+        let (mut n, mut in_paren) = (0, false);
+        for &c in line {
+            match c {
+                b')' if in_paren => in_paren = false,
+                _ if in_paren => {}
+                b';' => break,
+                b'(' => in_paren = true,
+                b'/' => {}
+                c if c <= b' ' => {}
+                _ => n += 1,
+            }
+        }
+        n
     }
 }
 
@@ -148,6 +175,16 @@ mod tests {
         assert!(Dialect::LinuxCnc.blends());
         assert!(Dialect::ALL.iter().filter(|d| d.blends()).count() == 1);
         assert_eq!(Dialect::Marlin.arc_planes(), 1);
-        assert_eq!(Dialect::Grbl.max_line_len(), Some(80));
+        assert_eq!(Dialect::Grbl.max_line_len(), Some(79));
+        // grbl keeps neither spaces nor comments.
+        let g = Dialect::Grbl;
+        assert_eq!(g.stored_len(b"G1 X1.5 (a comment) Y2 ; more"), 8);
+        assert_eq!(g.stored_len(b"/G1 X1\t"), 4);
+        let long_comment = format!("M2\n; ncsmooth {}", "x".repeat(100));
+        assert_eq!(
+            g.stored_len(long_comment.lines().nth(1).unwrap().as_bytes()),
+            0
+        );
+        assert_eq!(Dialect::Marlin.stored_len(b"G1 X1 ; c"), 9);
     }
 }
