@@ -412,6 +412,12 @@ fn smooth_trig_round_and_loop_corners() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The plan part of a `plan --report` JSON file.
+fn plan_report(path: &Path) -> serde_json::Value {
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    r.get("plan").cloned().unwrap_or(r)
+}
+
 #[test]
 fn plan_with_jerk_reports_it_held() {
     let d = tmpdir("plan-jerk");
@@ -431,12 +437,7 @@ fn plan_with_jerk_reports_it_held() {
         rep.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
-    let p = if r.get("plan").is_some() {
-        &r["plan"]
-    } else {
-        &r
-    };
+    let p = plan_report(&rep);
     assert_eq!(p["limits_held"], true);
     for (a, lim) in p["axes"]
         .as_array()
@@ -483,12 +484,7 @@ fn plan_jerk_resolves_a_short_s_transition() {
         rep.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
-    let p = if r.get("plan").is_some() {
-        &r["plan"]
-    } else {
-        &r
-    };
+    let p = plan_report(&rep);
     assert_eq!(p["limits_held"], true);
     let _ = std::fs::remove_dir_all(&d);
 }

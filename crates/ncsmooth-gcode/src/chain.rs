@@ -479,40 +479,39 @@ impl Program<'_> {
     /// The programmed vertices inside the box `lo`-`hi`, appended to `out`.
     fn vertices_in(&self, grid: &SegGrid, lo: Vec3, hi: Vec3, out: &mut Vec<Vec3>) {
         let inside = |v: &Vec3| v.min(lo) == lo && v.max(hi) == hi;
+        match self.vertex_candidates(grid, lo, hi) {
+            Some(ks) => out.extend(ks.into_iter().map(|k| self.points[k]).filter(inside)),
+            None => out.extend(self.points.iter().copied().filter(inside)),
+        }
+    }
+
+    /// Indices of the programmed vertices that may lie in the box `lo`-`hi` (the ends of
+    /// the grid's candidate segments), sorted and unique; `None` when the grid has none
+    /// to give and every vertex is a candidate.
+    fn vertex_candidates(&self, grid: &SegGrid, lo: Vec3, hi: Vec3) -> Option<Vec<usize>> {
         let mut segs = Vec::new();
         if self.points.len() < 2 || !grid.candidates(lo, hi, &mut segs) {
-            out.extend(self.points.iter().copied().filter(inside));
-            return;
+            return None;
         }
         let mut ks: Vec<usize> = segs.iter().flat_map(|&k| [k, k + 1]).collect();
         ks.sort_unstable();
         ks.dedup();
-        out.extend(ks.into_iter().map(|k| self.points[k]).filter(inside));
+        Some(ks)
     }
 
     /// The programmed vertex nearest to `p`: the grid's candidates in boxes of growing
     /// size, until the nearest one found lies within the box's half-width (any nearer
     /// vertex would be in the box).
     fn nearest_vertex(&self, grid: &SegGrid, p: Vec3) -> Option<Vec3> {
-        let nearest =
-            |c: &mut dyn Iterator<Item = Vec3>| c.min_by(|a, b| a.dist(p).total_cmp(&b.dist(p)));
-        if self.points.len() < 2 {
-            return nearest(&mut self.points.iter().copied());
-        }
+        let by_dist = |a: &Vec3, b: &Vec3| a.dist(p).total_cmp(&b.dist(p));
         let mut r = grid.cell;
-        let mut found = Vec::new();
         loop {
             let pad = Vec3::new(r, r, r);
-            let mut segs = Vec::new();
-            if !grid.candidates(p - pad, p + pad, &mut segs) {
-                return nearest(&mut self.points.iter().copied());
-            }
-            found.clear();
-            found.extend(
-                segs.iter()
-                    .flat_map(|&k| [self.points[k], self.points[k + 1]]),
-            );
-            if let Some(v) = nearest(&mut found.iter().copied()).filter(|v| v.dist(p) <= r) {
+            let Some(ks) = self.vertex_candidates(grid, p - pad, p + pad) else {
+                return self.points.iter().copied().min_by(by_dist);
+            };
+            let near = ks.into_iter().map(|k| self.points[k]).min_by(by_dist);
+            if let Some(v) = near.filter(|v| v.dist(p) <= r) {
                 return Some(v);
             }
             r *= 2.0;

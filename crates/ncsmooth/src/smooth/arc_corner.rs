@@ -565,6 +565,26 @@ mod tests {
         }
     }
 
+    /// The pieces and the report of [`blend_items`] on the program's own items (one
+    /// chain, micro-legs not merged), straight angle 0.01 degrees.
+    fn blend_as_programmed(tp: &Toolpath, tol: f64) -> (Vec<OutPiece>, SmoothReport) {
+        let prog: Vec<Move> = tp.moves().cloned().collect();
+        let chain = Chain {
+            moves: &prog,
+            start_extra: None,
+            open_ends: [false; 2],
+        };
+        let mut rep = SmoothReport::default();
+        let pieces = blend_items(
+            &arc_items(&chain),
+            tol,
+            0.01,
+            &ArcOptions::default(),
+            &mut rep,
+        );
+        (pieces, rep)
+    }
+
     /// Smooths a polyline and checks the contract: two-sided deviation, finite output,
     /// G1 at every smoothed corner, no overlapping transitions.
     fn check_polyline(pts: &[Vec3], tol: f64) {
@@ -591,20 +611,7 @@ mod tests {
         assert!(g0 <= s.report.corners_stopped, "{g0} {:?}", s.report);
         assert!(joints.iter().all(|j| j.class != JointClass::Gap));
         // Transitions never overlap: the pieces advance monotonically along the chain.
-        let prog: Vec<Move> = tp.moves().cloned().collect();
-        let chain = Chain {
-            moves: &prog,
-            start_extra: None,
-            open_ends: [false; 2],
-        };
-        let mut rep = SmoothReport::default();
-        let pieces = blend_items(
-            &arc_items(&chain),
-            tol,
-            0.01,
-            &ArcOptions::default(),
-            &mut rep,
-        );
+        let (pieces, _) = blend_as_programmed(&tp, tol);
         let key = |p: ChainPos| (p.index, p.frac);
         for w in pieces.windows(2) {
             assert!(key(w[0].from) <= key(w[0].to) && key(w[0].to) <= key(w[1].from));
@@ -693,20 +700,7 @@ mod tests {
         pts.push(last + Vec3::new(turn.cos(), turn.sin(), 0.0) * 5.0);
         let tol = 0.01;
         let tp = Toolpath::from_polyline(&pts, Some(10.0));
-        let prog: Vec<Move> = tp.moves().cloned().collect();
-        let chain = Chain {
-            moves: &prog,
-            start_extra: None,
-            open_ends: [false; 2],
-        };
-        let mut unmerged = SmoothReport::default();
-        blend_items(
-            &arc_items(&chain),
-            tol,
-            0.01,
-            &ArcOptions::default(),
-            &mut unmerged,
-        );
+        let (_, unmerged) = blend_as_programmed(&tp, tol);
         assert!(unmerged.corners_stopped > 0, "{unmerged:?}");
         let s = smooth(&tp, &arc_opts(tol)).unwrap();
         assert_eq!(s.report.corners_stopped, 0, "{:?}", s.report);
