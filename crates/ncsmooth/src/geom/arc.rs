@@ -99,8 +99,8 @@ impl Arc {
     }
 
     /// Arc through `start` tangent to the unit direction `tangent` there, ending at `end`
-    /// (the unique circle, the short or long way as the geometry dictates). `None` when
-    /// `end` lies on the tangent line.
+    /// (the unique circle, the short or long way as the geometry dictates), planar. `None`
+    /// when `end` lies on the tangent line.
     pub fn from_tangent(start: Vec3, tangent: Vec3, end: Vec3) -> Option<Arc> {
         let t = tangent.normalized()?;
         let chord = end - start;
@@ -112,7 +112,14 @@ impl Arc {
             return None;
         }
         let center = start + w * k;
-        Arc::from_center(start, end, center, n, true, 0)
+        // `end` lies in the plane of `start` and `n` by construction: what `from_center`
+        // finds along `n` is round-off, not a helix (a helical arc's nearest point is
+        // numerical, and its G-code another word).
+        let arc = Arc::from_center(start, end, center, n, true, 0)?;
+        Some(Arc {
+            axial: Vec3::ZERO,
+            ..arc
+        })
     }
 
     /// Unit normal of the plane, oriented so that the motion is a positive rotation.

@@ -26,10 +26,9 @@
 //! ## Run mode
 //! With [`SmoothOptions::run`] (on by default) the curve methods fit runs of micro-corners
 //! as one curve through the whole tolerance band ([`band_fit`]) in their own family:
-//! `bspline` as cubic Béziers and `trig` as trigonometric segments ([`run_mode`], before
-//! their corner transitions), `nurbs` as a NURBS (in its fitting step). `arc` has none: its
-//! family is the corner arc alone. Each method's module says where this follows its paper
-//! and where it extends it.
+//! `bspline` as cubic Béziers, `trig` as trigonometric segments and `arc` as an arc spline
+//! ([`run_mode`], before their corner transitions), `nurbs` as a NURBS (in its fitting
+//! step). Each method's module says where this follows its paper and where it extends it.
 //!
 //! ## Methods
 //! * [`Method::None`]: the program unchanged (planning the raw path).
@@ -40,6 +39,7 @@
 
 pub mod arc_corner;
 pub mod arc_joint;
+pub mod arc_spline;
 pub mod band_fit;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
@@ -418,6 +418,7 @@ pub(crate) fn smooth_chain(
     let family = match opts.method {
         Method::Bspline => Some(run_mode::Family::Bezier),
         Method::Trig => Some(run_mode::Family::Trig),
+        Method::Arc => Some(run_mode::Family::Arcs),
         _ => None,
     };
     let rewritten = family.and_then(|f| run_mode::rewrite_runs(chain, opts, f, report));

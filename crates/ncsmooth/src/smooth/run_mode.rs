@@ -1,4 +1,5 @@
-//! The run mode of `bspline` (Guo) and `trig` (Tao): a chain's runs of micro-corners
+//! The run mode of `bspline` (Guo), `trig` (Tao) and `arc` (Wu's arcs): a chain's runs of
+//! micro-corners
 //! replaced by one curve of the method's family through the tolerance band
 //! ([`super::band_fit`]), before the method's own corner transitions run on what is left.
 //! (`nurbs`, Wu, fits its runs in [`super::nurbs_hybrid`] itself, where the paper puts its
@@ -30,10 +31,16 @@
 //!   points and end derivatives: G1 at the joints and G2 up to the window's small error;
 //!   measured against the band like the B-spline (a fit a little inside the band,
 //!   [`TRIG_BAND_MARGIN`], leaves it room).
+//! * [`Family::Arcs`] (Wu's arc transitions, `--method arc`): tangent-continuous arcs
+//!   along the B-spline ([`super::arc_spline`], biarcs within half of [`ARC_BAND_MARGIN`]
+//!   of the tolerance, split until consecutive arcs differ little in curvature): G1 at the
+//!   joints with curvature steps of a few per cent, where one arc per corner steps between
+//!   zero and `1/R` at every leg.
 //!
 //! A run whose fit fails stays lines, and the method handles its corners one by one as in
 //! the paper.
 
+use super::arc_spline::{arc_spline, MIN_ARC_MM};
 use super::band_fit::{band_fit, BandFit, EndCond};
 use super::screen::{screen, Run};
 use super::{assemble, Chain, ChainPos, OutPiece, SmoothOptions, SmoothReport};
@@ -56,6 +63,9 @@ pub const TRIG_LAMBDA: f64 = 1.0;
 /// Share of the tolerance taken off the B-spline's band when a trigonometric spline is to
 /// follow it.
 pub const TRIG_BAND_MARGIN: f64 = 0.01;
+/// Share of the tolerance taken off the B-spline's band when arcs are to follow it; the
+/// arcs keep within half of it from the B-spline.
+pub const ARC_BAND_MARGIN: f64 = 0.04;
 
 /// Fewest runs in a chain for fitting them on several threads.
 pub const PARALLEL_MIN_RUNS: usize = 16;
@@ -67,6 +77,8 @@ pub enum Family {
     Bezier,
     /// Cubic trigonometric splines (Tao).
     Trig,
+    /// Tangent-continuous circular arcs (Wu's arc transitions, [`super::arc_spline`]).
+    Arcs,
 }
 
 /// The previous (`forward = false`) or next non-degenerate move of the chain from `i`.
@@ -188,9 +200,11 @@ fn fit_run(chain: &Chain<'_>, r: Run, opts: &SmoothOptions, family: Family) -> O
         .collect();
     let tol = opts.tol_mm * super::arc_corner::CORNER_TOL_SHARE;
     let mut fo = opts.run.fit.clone();
-    if family == Family::Trig {
-        // Room for the trigonometric spline that follows the B-spline.
-        fo.band_share -= TRIG_BAND_MARGIN;
+    // Room for the trigonometric spline or the arcs that follow the B-spline.
+    match family {
+        Family::Trig => fo.band_share -= TRIG_BAND_MARGIN,
+        Family::Arcs => fo.band_share -= ARC_BAND_MARGIN,
+        Family::Bezier => {}
     }
     let fit = band_fit(&pts, c0, c1, tol, opts.tol_mm * MEASURE_SHARE, &fo)?;
     let mut u = vec![0.0];
@@ -312,15 +326,63 @@ fn trig_pieces(f: &Fitted, tol: f64, accuracy: f64) -> Option<Vec<(Segment, f64,
         let t = trig_window(c.p0, d0, c.p3, d1, TRIG_WINDOW, TRIG_LAMBDA)?;
         out.push((Segment::Trig(t), a, b));
     }
+    holds_band(f, out, tol, accuracy)
+}
+
+/// `pieces` when they hold the band around the run's polyline (measured within `accuracy`).
+fn holds_band(
+    f: &Fitted,
+    pieces: Vec<(Segment, f64, f64)>,
+    tol: f64,
+    accuracy: f64,
+) -> Option<Vec<(Segment, f64, f64)>> {
     let lines: Vec<Segment> = f
         .pts
         .windows(2)
         .map(|w| Segment::Line(Line::new(w[0], w[1])))
         .collect();
     let prog: Vec<(&Segment, u32)> = lines.iter().map(|s| (s, 0)).collect();
-    let refs: Vec<(&Segment, u32)> = out.iter().map(|s| (&s.0, 0)).collect();
+    let refs: Vec<(&Segment, u32)> = pieces.iter().map(|s| (&s.0, 0)).collect();
     let dev = deviation_segments(&refs, &prog, accuracy).max_mm();
-    (dev.is_finite() && dev + accuracy <= tol).then_some(out)
+    (dev.is_finite() && dev + accuracy <= tol).then_some(pieces)
+}
+
+/// The run curve as an arc spline ([`super::arc_spline`], each cubic piece within half
+/// of [`ARC_BAND_MARGIN`] of the tolerance), measured against the band; `None` when it
+/// does not hold it.
+fn arc_pieces(f: &Fitted, tol: f64, accuracy: f64) -> Option<Vec<(Segment, f64, f64)>> {
+    let c = &f.fit.curve;
+    let len = f.u[f.u.len() - 1];
+    if len < 2.0 * MIN_ARC_MM {
+        // A cluster of steps shorter than two arcs is one corner of the arc transitions
+        // (their micro-leg merging), not a curve.
+        return None;
+    }
+    let mut arcs = Vec::new();
+    // Knot spans shorter than the shortest arc (a CAM file's quantisation steps) go with
+    // the next: a biarc a few nanometres long turns in whatever direction round-off says.
+    let b = breakpoints(c);
+    let mut from = b[0];
+    for (i, &t) in b.iter().enumerate().skip(1) {
+        let last = i + 1 == b.len();
+        if !last && c.eval(from).dist(c.eval(t)) < 2.0 * MIN_ARC_MM {
+            continue;
+        }
+        if !arc_spline(c, from, t, 0.5 * ARC_BAND_MARGIN * tol, &mut arcs) {
+            return None;
+        }
+        from = t;
+    }
+    let mut a = b[0];
+    let out = arcs
+        .into_iter()
+        .map(|(s, t)| {
+            let piece = (s, a * len, t * len);
+            a = t;
+            piece
+        })
+        .collect();
+    holds_band(f, out, tol, accuracy)
 }
 
 /// The chain with its runs replaced by stubs and fitted curves of `family` (module doc),
@@ -347,6 +409,7 @@ pub(crate) fn rewrite_runs(
         let segs = match family {
             Family::Bezier => Some(bezier_pieces(&f)),
             Family::Trig => trig_pieces(&f, tol, accuracy),
+            Family::Arcs => arc_pieces(&f, tol, accuracy),
         }?;
         Some((f, segs))
     });
@@ -454,7 +517,7 @@ mod tests {
                 .map(|(s, _, i)| s.curvature((i as f64 / 8.0).clamp(1e-6, 1.0 - 1e-6)))
                 .fold(0.0, f64::max)
         };
-        for method in [Method::Bspline, Method::Nurbs, Method::Trig] {
+        for method in [Method::Bspline, Method::Nurbs, Method::Trig, Method::Arc] {
             let mut o = SmoothOptions {
                 method,
                 tol_mm: tol,
@@ -468,15 +531,43 @@ mod tests {
             assert!(joints
                 .iter()
                 .all(|j| !matches!(j.class, JointClass::G0 | JointClass::Gap)));
-            let jump = joints.iter().map(|j| j.curvature_jump).fold(0.0, f64::max);
             let run_peak = peak(&s.toolpath);
-            assert!(
-                jump < 0.1 * run_peak,
-                "{method:?}: jump {jump}, peak {run_peak}"
-            );
+            let big_jumps = |joints: &[crate::verify::Joint]| {
+                joints
+                    .iter()
+                    .filter(|j| j.curvature_jump >= 0.1 * run_peak)
+                    .count()
+            };
             o.run.enabled = false;
             let corners = smooth(&tp, &o).unwrap();
             let corner_peak = peak(&corners.toolpath);
+            if method == Method::Arc {
+                // Wu's arcs step in curvature at the corners left to the transitions
+                // (from the line into 1/R); between the arcs of a run the steps are a few
+                // per cent of the curvature (biarcs spanning less than 4 MIN_ARC_MM are
+                // not split for it: their arcs are up to about 2 MIN_ARC_MM long).
+                use crate::smooth::arc_spline::{CURVATURE_FLOOR_PER_MM, MIN_ARC_MM};
+                let moves: Vec<_> = s.toolpath.moves().collect();
+                let k = |i: usize| match moves[i].segment {
+                    Segment::Arc(a) if a.length() >= 3.0 * MIN_ARC_MM => Some(1.0 / a.radius),
+                    _ => None,
+                };
+                let mut arc_joints = 0;
+                for j in &joints {
+                    if let (Some(a), Some(b)) = (k(j.move_index), k(j.move_index + 1)) {
+                        let allow = 0.1 * a.max(b) + 2.0 * CURVATURE_FLOOR_PER_MM;
+                        assert!(j.curvature_jump <= allow, "{j:?}: {a} {b}");
+                        arc_joints += 1;
+                    }
+                }
+                assert!(arc_joints > 100, "{arc_joints}");
+            } else {
+                let jump = joints.iter().map(|j| j.curvature_jump).fold(0.0, f64::max);
+                assert!(
+                    big_jumps(&joints) == 0,
+                    "{method:?}: jump {jump}, peak {run_peak}"
+                );
+            }
             assert!(
                 run_peak < 0.8 * corner_peak,
                 "{method:?}: {run_peak} against {corner_peak}"
