@@ -3,9 +3,9 @@
 //! | dialect | blending the writer bounds | shortest block it aims for | arcs | G5 | longest line |
 //! |---|---|---|---|---|---|
 //! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::rewrite::Blend`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | yes | 256 |
-//! | `grbl` | none (grbl keeps the path, junction deviation only slows) | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | no | 80 |
+//! | `grbl` | none (grbl keeps the path, junction deviation only slows) | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | no | 79 stored |
 //! | `grblhal` | none | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | yes | 256 |
-//! | `marlin` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | yes | 96 |
+//! | `marlin` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | yes | 95 stored |
 //! | `klipper` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | no | none |
 //! | `generic` | none | none | G17, G18, G19 | no | none |
 //!
@@ -129,12 +129,13 @@ impl Dialect {
     /// Longest line the controller reads, if it has a limit, in the characters it keeps
     /// ([`Dialect::stored_len`]): grbl 1.1's line buffer is `LINE_BUFFER_SIZE` = 80 bytes,
     /// a terminating zero included, so 79 characters (protocol.c flags an overflow at the
-    /// 80th).
+    /// 80th); Marlin's command buffer is `MAX_CMD_SIZE` = 96 bytes and queue.cpp skips the
+    /// rest of a line once 95 characters are stored.
     pub fn max_line_len(self) -> Option<usize> {
         match self {
             Dialect::LinuxCnc | Dialect::GrblHal => Some(256),
             Dialect::Grbl => Some(79),
-            Dialect::Marlin => Some(96),
+            Dialect::Marlin => Some(95),
             Dialect::Klipper | Dialect::Generic => None,
         }
     }
@@ -142,9 +143,14 @@ impl Dialect {
     /// Characters of a written line the controller keeps in its line buffer: grbl and
     /// grblHAL drop whitespace, control characters, `/` and comments (`(...)` and `;` to
     /// the end) as they read a line (grbl 1.1 protocol.c), so a long comment, such as the
-    /// provenance line after the program end, does not overflow it; other controllers are
-    /// counted as written.
+    /// provenance line after the program end, does not overflow it; Marlin stores
+    /// everything before a `;` comment, whitespace included (queue.cpp
+    /// `process_stream_char`; `(...)` comments only with its optional `PAREN_COMMENTS`);
+    /// other controllers are counted as written.
     pub fn stored_len(self, line: &[u8]) -> usize {
+        if self == Dialect::Marlin {
+            return line.iter().position(|&c| c == b';').unwrap_or(line.len());
+        }
         if !matches!(self, Dialect::Grbl | Dialect::GrblHal) {
             return line.len();
         }
@@ -185,6 +191,14 @@ mod tests {
             g.stored_len(long_comment.lines().nth(1).unwrap().as_bytes()),
             0
         );
-        assert_eq!(Dialect::Marlin.stored_len(b"G1 X1 ; c"), 9);
+        // Marlin keeps spaces and parentheses but not a `;` comment.
+        let m = Dialect::Marlin;
+        assert_eq!(m.stored_len(b"G1 X1 ; c"), 6);
+        assert_eq!(m.stored_len(b"G1 X1 (c) Y2"), 12);
+        assert_eq!(
+            m.stored_len(long_comment.lines().nth(1).unwrap().as_bytes()),
+            0
+        );
+        assert_eq!(m.max_line_len(), Some(95));
     }
 }
