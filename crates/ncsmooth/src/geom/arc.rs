@@ -495,4 +495,25 @@ mod tests {
         assert!(r.eval(0.0).dist(a.eval(1.0)) < 1e-12 && r.eval(1.0).dist(a.eval(0.0)) < 1e-12);
         assert!(r.eval(0.25).dist(a.eval(0.75)) < 1e-12);
     }
+
+    #[test]
+    fn tangent_constructor_is_planar_in_any_plane() {
+        // A tilted plane at large coordinates: the end lies in the plane of the start and
+        // the tangent, so the arc is never helical (round-off along the normal made it so,
+        // and a helical arc's nearest point is numerical).
+        let (s, t) = (
+            Vec3::new(101.3, -57.9, 12.7),
+            Vec3::new(0.3, 0.8, -0.52).normalized().unwrap(),
+        );
+        for k in 1..50 {
+            let x = k as f64 * 0.37;
+            let e = s + t * x + Vec3::new(0.2, -0.1, 0.15).cross(t) * (0.01 * x * x);
+            let a = Arc::from_tangent(s, t, e).unwrap();
+            assert!(!a.is_helical(), "{k}");
+            assert!(
+                a.end().dist(e) < 1e-9 && a.start_tangent().dist(t) < 1e-9,
+                "{k}"
+            );
+        }
+    }
 }
