@@ -64,7 +64,7 @@ pub enum MethodArg {
     None,
     /// Cubic B-spline corner transitions in a tolerance band (Guo et al.).
     Bspline,
-    /// Circular-arc corner transitions (Wu et al.).
+    /// Circular-arc corner transitions (Wu et al.), runs of micro-lines as arc splines.
     Arc,
     /// NURBS fitting of micro-line runs plus arc corners (Wu et al.).
     Nurbs,

@@ -1,6 +1,6 @@
 //! One smooth curve through the tolerance band of a run of micro-lines: the engine of the
-//! methods' *run mode* (issue 17), shared by `bspline` (Guo), `nurbs` (Wu) and `trig`
-//! (Tao), which each carry the result in their own curve family.
+//! methods' *run mode* (issue 17), shared by `bspline` (Guo), `nurbs` (Wu), `trig` (Tao)
+//! and `arc` (Wu's arcs), which each carry the result in their own curve family.
 //!
 //! ## Problem
 //! Given the run's points `Q_0 .. Q_n` (a polyline), find a curve `C` that stays within

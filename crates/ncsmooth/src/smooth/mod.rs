@@ -33,7 +33,8 @@
 //! ## Methods
 //! * [`Method::None`]: the program unchanged (planning the raw path).
 //! * [`Method::Bspline`]: Guo et al., cubic B-spline corner transitions in a tolerance band.
-//! * [`Method::Arc`]: Wu et al., circular-arc corner transitions.
+//! * [`Method::Arc`]: Wu et al., circular-arc corner transitions (runs of micro-lines as
+//!   arc splines).
 //! * [`Method::Nurbs`]: Wu et al., NURBS fitting of micro-line runs plus arc corners.
 //! * [`Method::Trig`]: Tao et al., cubic trigonometric spline curves and corners.
 
