@@ -1634,3 +1634,46 @@ fn grbl_corners_at_comment_split_feed_changes_have_no_short_blocks() {
         );
     }
 }
+
+/// A programmed arc meeting a line at an angle: the blend's first block started on the
+/// arc, which is written as it is, and was 0.0124 mm long (linuxcnc_blur_torus on grbl:
+/// 0.0089 mm as grbl executed it). grbl is given the programmed corner there instead: the
+/// arc to its programmed end, then the line.
+#[test]
+fn grbl_arc_to_line_corners_have_no_short_blocks() {
+    let d = tmpdir("grbl_arc_corner");
+    let src =
+        "G21 G90 G17\nG0 X0 Y0\nG1 X10 Y0 F600\nG3 X20 Y10 I0 J10\nG1 X30 Y5\nG1 X40 Y5\nM2\n";
+    let f = write(&d, "arc_line.ngc", src.as_bytes());
+    for method in ["bspline", "arc", "trig", "nurbs"] {
+        let (out, rep) = (
+            d.join(format!("{method}.gcode")),
+            d.join(format!("{method}.json")),
+        );
+        let o = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            method,
+            "--tol",
+            "0.01",
+            "--dialect",
+            "grbl",
+            "-o",
+            out.to_str().unwrap(),
+            "--report",
+            rep.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+        assert_eq!(r["within_tol"], true, "{method}");
+        let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
+        assert!(
+            min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
+            "{method}: {}",
+            r["blocks"]
+        );
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(text.contains("G3 X20 Y10 I0 J10"), "{method}: {text}");
+    }
+}

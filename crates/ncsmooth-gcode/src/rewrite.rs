@@ -28,7 +28,7 @@ use crate::source::{flags, LineInfo, PathMode, WriteState};
 use crate::writer::{push_fixed, ChainMode, Floor, Frame, MotionWriter, MAX_DECIMALS};
 use crate::{Plane, Program};
 use ncsmooth::geom::{
-    Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
+    Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
 use ncsmooth::path::{Move, Toolpath, Units};
 
@@ -363,12 +363,19 @@ fn floor_corners(
             ))
         })
         .collect();
-    if corners.is_empty() {
+    let arc_joints = arc_joint_corners(&moves, orig, orig_by, floor);
+    if corners.is_empty() && arc_joints.is_empty() {
         return None;
     }
     let mut out: Vec<Move> = moves.iter().map(|m| (*m).clone()).collect();
     let mut dropped = vec![false; out.len()];
     let mut inserted: Vec<Option<Move>> = vec![None; out.len()];
+    for (k, arc, rest, extra) in arc_joints {
+        out[k - 1].segment = arc.into();
+        out[k - 1].extra = extra.or(out[k - 1].extra);
+        dropped[k] = true;
+        out[k + 1].segment = rest;
+    }
     for &(k, corner, extra, line_before) in &corners {
         // A line of the same program line before the corner is lengthened to it; else
         // the transition becomes the line from its start to the corner (within the band:
@@ -403,6 +410,84 @@ fn floor_corners(
             .flat_map(|((m, d), ins)| (!d).then_some(m).into_iter().chain(ins))
             .collect(),
     )
+}
+
+/// Under a [`BlockFloor`]: the blends of a programmed arc into the programmed line or arc
+/// after it ([`ncsmooth::smooth::arc_joint`]) shorter than two floors, as `(index of the
+/// blend, the arc before it lengthened to the programmed corner, the move after it started
+/// there, extra axes at the corner)`. Such a blend starts on the arc, which is written as
+/// it is, so its first block cannot be lifted (linuxcnc_blur_torus, trig on grbl: blocks
+/// of 0.012-0.013 mm after a G3, 0.0089 mm as grbl executed them). The programmed corner
+/// is the programmed path itself; the controller takes it at its junction speed.
+type ArcJointCorner = (usize, Arc, Segment, Option<ncsmooth::path::ExtraAxes>);
+
+/// Whether the arcs `a` and `b` lie on one circle (to [`RETAG_ARCLEN_ACCURACY_MM`]).
+fn same_circle(a: &Arc, b: &Arc) -> bool {
+    a.center.dist(b.center) <= RETAG_ARCLEN_ACCURACY_MM
+        && (a.radius - b.radius).abs() <= RETAG_ARCLEN_ACCURACY_MM
+        && a.normal().dist(b.normal()) <= RETAG_ARCLEN_ACCURACY_MM
+}
+
+/// The written move `next` (a part of the programmed `after`) started at `corner`, or
+/// `None` when it is not on `after` or of another kind.
+fn restart_at(next: &Segment, after: &Segment, corner: Vec3) -> Option<Segment> {
+    match (next, after) {
+        (Segment::Line(n), Segment::Line(_)) => Some(Line::new(corner, n.p1).into()),
+        (Segment::Arc(n), Segment::Arc(p)) if same_circle(n, p) => {
+            Arc::from_center(corner, n.end(), p.center, p.normal(), true, 0).map(Into::into)
+        }
+        _ => None,
+    }
+}
+
+/// See [`ArcJointCorner`].
+fn arc_joint_corners(
+    moves: &[&Move],
+    orig: &[&Move],
+    orig_by: &[(usize, usize)],
+    floor: BlockFloor,
+) -> Vec<ArcJointCorner> {
+    (1..moves.len().saturating_sub(1))
+        .filter_map(|k| {
+            let (prev, m, next) = (moves[k - 1], moves[k], moves[k + 1]);
+            let Segment::Arc(a) = &prev.segment else {
+                return None;
+            };
+            if prev.pinned
+                || m.pinned
+                || next.pinned
+                || matches!(m.segment, Segment::Line(_))
+                || m.segment.arclen(RETAG_ARCLEN_ACCURACY_MM) >= 2.0 * floor.min_block_mm
+            {
+                return None;
+            }
+            // The programmed arc the written one is part of, and the move after it.
+            let (_, end) = orig_by[(prev.line as usize).checked_sub(1)?];
+            let v = orig.get(end.checked_sub(1)?)?;
+            let after = &orig.get(end)?.segment;
+            let Segment::Arc(p) = &v.segment else {
+                return None;
+            };
+            let corner = p.end();
+            let on_after = |q: Vec3| {
+                after
+                    .nearest(q, RETAG_ARCLEN_ACCURACY_MM)
+                    .distance_sq
+                    .sqrt()
+                    <= floor.tol_mm
+            };
+            if !(same_circle(a, p)
+                && after.start().dist(corner) <= RETAG_ARCLEN_ACCURACY_MM
+                && on_after(m.segment.end())
+                && on_after(next.segment.end()))
+            {
+                return None;
+            }
+            let arc = Arc::from_center(a.start(), corner, p.center, p.normal(), true, 0)?;
+            let rest = restart_at(&next.segment, after, corner)?;
+            Some((k, arc, rest, v.extra))
+        })
+        .collect()
 }
 
 /// Accuracy (mm) of the arc lengths [`floor_corners`] compares with the floor.
