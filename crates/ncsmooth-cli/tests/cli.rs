@@ -1584,6 +1584,39 @@ fn plan_of_a_file_bad_late_names_the_line_and_writes_nothing() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// `smooth FILE --method METHOD --tol 0.01 --dialect grbl` into `d`: succeeds, within tol
+/// and no block below the stepper floor; returns the written text.
+fn smooth_for_grbl_checked(d: &Path, f: &Path, method: &str) -> String {
+    let (out, rep) = (
+        d.join(format!("{method}.gcode")),
+        d.join(format!("{method}.json")),
+    );
+    let o = run(&[
+        "smooth",
+        f.to_str().unwrap(),
+        "--method",
+        method,
+        "--tol",
+        "0.01",
+        "--dialect",
+        "grbl",
+        "-o",
+        out.to_str().unwrap(),
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(r["within_tol"], true, "{method}");
+    let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
+    assert!(
+        min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
+        "{method}: {}",
+        r["blocks"]
+    );
+    std::fs::read_to_string(&out).unwrap()
+}
+
 /// A comment between two smoothed lines with a feed change (cncjs_jsdc's plunge, cut and
 /// retract) used to cut a corner transition in two, each half a block of three steps that
 /// no lifting could lengthen: grbl is given the programmed corner there instead.
@@ -1599,34 +1632,7 @@ fn grbl_corners_at_comment_split_feed_changes_have_no_short_blocks() {
     src += "; Retract\nG1 Z1 F2540\nM2\n";
     let f = write(&d, "plunge.ngc", src.as_bytes());
     for method in ["bspline", "arc", "trig", "nurbs"] {
-        let (out, rep) = (
-            d.join(format!("{method}.gcode")),
-            d.join(format!("{method}.json")),
-        );
-        let o = run(&[
-            "smooth",
-            f.to_str().unwrap(),
-            "--method",
-            method,
-            "--tol",
-            "0.01",
-            "--dialect",
-            "grbl",
-            "-o",
-            out.to_str().unwrap(),
-            "--report",
-            rep.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
-        assert_eq!(r["within_tol"], true, "{method}");
-        let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
-        assert!(
-            min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
-            "{method}: {}",
-            r["blocks"]
-        );
-        let text = std::fs::read_to_string(&out).unwrap();
+        let text = smooth_for_grbl_checked(&d, &f, method);
         let at = |c: &str| text.find(c).unwrap_or_else(|| panic!("{method}: {c} lost"));
         assert!(
             at("; plunge") < at("; cut") && at("; cut") < at("; Retract"),
@@ -1646,34 +1652,7 @@ fn grbl_arc_to_line_corners_have_no_short_blocks() {
         "G21 G90 G17\nG0 X0 Y0\nG1 X10 Y0 F600\nG3 X20 Y10 I0 J10\nG1 X30 Y5\nG1 X40 Y5\nM2\n";
     let f = write(&d, "arc_line.ngc", src.as_bytes());
     for method in ["bspline", "arc", "trig", "nurbs"] {
-        let (out, rep) = (
-            d.join(format!("{method}.gcode")),
-            d.join(format!("{method}.json")),
-        );
-        let o = run(&[
-            "smooth",
-            f.to_str().unwrap(),
-            "--method",
-            method,
-            "--tol",
-            "0.01",
-            "--dialect",
-            "grbl",
-            "-o",
-            out.to_str().unwrap(),
-            "--report",
-            rep.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
-        assert_eq!(r["within_tol"], true, "{method}");
-        let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
-        assert!(
-            min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
-            "{method}: {}",
-            r["blocks"]
-        );
-        let text = std::fs::read_to_string(&out).unwrap();
+        let text = smooth_for_grbl_checked(&d, &f, method);
         assert!(text.contains("G3 X20 Y10 I0 J10"), "{method}: {text}");
     }
 }
