@@ -1584,12 +1584,12 @@ fn plan_of_a_file_bad_late_names_the_line_and_writes_nothing() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// `smooth FILE --method METHOD --tol 0.01 --dialect grbl` into `d`: succeeds, within tol
-/// and no block below the stepper floor; returns the written text.
-fn smooth_for_grbl_checked(d: &Path, f: &Path, method: &str) -> String {
+/// `smooth FILE --method METHOD --tol 0.01 --dialect DIALECT` into `d`: succeeds and is
+/// within tol; returns the written text and the report.
+fn smooth_checked(d: &Path, f: &Path, method: &str, dialect: &str) -> (String, serde_json::Value) {
     let (out, rep) = (
-        d.join(format!("{method}.gcode")),
-        d.join(format!("{method}.json")),
+        d.join(format!("{method}-{dialect}.gcode")),
+        d.join(format!("{method}-{dialect}.json")),
     );
     let o = run(&[
         "smooth",
@@ -1599,7 +1599,7 @@ fn smooth_for_grbl_checked(d: &Path, f: &Path, method: &str) -> String {
         "--tol",
         "0.01",
         "--dialect",
-        "grbl",
+        dialect,
         "-o",
         out.to_str().unwrap(),
         "--report",
@@ -1607,14 +1607,20 @@ fn smooth_for_grbl_checked(d: &Path, f: &Path, method: &str) -> String {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
-    assert_eq!(r["within_tol"], true, "{method}");
+    assert_eq!(r["within_tol"], true, "{method} {dialect}");
+    (std::fs::read_to_string(&out).unwrap(), r)
+}
+
+/// [`smooth_checked`] for grbl, and no block below the stepper floor.
+fn smooth_for_grbl_checked(d: &Path, f: &Path, method: &str) -> String {
+    let (text, r) = smooth_checked(d, f, method, "grbl");
     let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
     assert!(
         min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
         "{method}: {}",
         r["blocks"]
     );
-    std::fs::read_to_string(&out).unwrap()
+    text
 }
 
 /// A comment between two smoothed lines with a feed change (cncjs_jsdc's plunge, cut and
@@ -1654,5 +1660,40 @@ fn grbl_arc_to_line_corners_have_no_short_blocks() {
     for method in ["bspline", "arc", "trig", "nurbs"] {
         let text = smooth_for_grbl_checked(&d, &f, method);
         assert!(text.contains("G3 X20 Y10 I0 J10"), "{method}: {text}");
+    }
+}
+
+/// A long programmed arc inside a smoothed run meets the flattened transitions at its
+/// ends nearly, not exactly, tangentially. LinuxCNC 2.9 runs such a joint at its kink
+/// velocity (2 mm/s on linuxcnc_blur_torus), so for LinuxCNC the arc is flattened with
+/// the rest of the run; other dialects keep it one `G2`/`G3`, and so does LinuxCNC where
+/// the arc meets the program's own lines.
+#[test]
+fn linuxcnc_gets_long_arcs_of_smoothed_runs_as_lines() {
+    let d = tmpdir("linuxcnc_long_arcs");
+    let src = "G21 G90 G17\nG0 X0 Y0\nG1 X10 Y0.5 F600\nG1 X12 Y0\nG3 X20 Y8 I0 J8\n\
+               G1 X30 Y5\nG1 X40 Y5\nM2\n";
+    let f = write(&d, "arc_run.ngc", src.as_bytes());
+    for method in ["bspline", "arc", "trig", "nurbs"] {
+        let (generic, _) = smooth_checked(&d, &f, method, "generic");
+        let (linuxcnc, _) = smooth_checked(&d, &f, method, "linuxcnc");
+        let arcs = |t: &str| {
+            t.lines()
+                .filter(|l| matches!(l.split(' ').next(), Some("G2" | "G3")))
+                .count()
+        };
+        assert!(arcs(&generic) >= 1, "{method}: {generic}");
+        assert_eq!(arcs(&linuxcnc), 0, "{method}: {linuxcnc}");
+    }
+    // Tangent to the program's own lines at both ends, the arc stays one G3.
+    let src = "G21 G90 G17\nG0 X0 Y0\nG1 X10 Y0 F600\nG3 X20 Y10 I0 J10\nG1 X20 Y20\n\
+               G1 X25 Y26\nG1 X40 Y26\nM2\n";
+    let f = write(&d, "tangent_arc.ngc", src.as_bytes());
+    for method in ["bspline", "arc", "trig", "nurbs"] {
+        let (linuxcnc, _) = smooth_checked(&d, &f, method, "linuxcnc");
+        assert!(
+            linuxcnc.contains("G3 X20 Y10 I0 J10"),
+            "{method}: {linuxcnc}"
+        );
     }
 }

@@ -116,6 +116,24 @@ impl Dialect {
         }
     }
 
+    /// Whether a long arc inside a smoothed run is better written as one `G2`/`G3` than
+    /// flattened with the run's lines (fewer, longer blocks) wherever it meets them. Not
+    /// for LinuxCNC next to a flattened curve: its 2.9 planner joins an arc to a nearly
+    /// tangent line - the first or last chord of the curve, off the arc's tangent by half
+    /// its turn and the rounding - with neither a tangent join nor a blend arc: the kink
+    /// is too large for its tangent rule (tp.c `tpSetupTangent`: the kink's acceleration
+    /// over `ARC_BLEND_TANGENT_KINK_RATIO` of the limit, with an arc's share halved), no
+    /// blend arc is made at a blend tolerance of a micrometre, and the joint falls back to
+    /// the kink velocity or a parabolic blend that halves the arc's normal acceleration.
+    /// Measured on linuxcnc_blur_torus (bspline, 342 of its 371 written arcs): joints at
+    /// 2 mm/s (the kink velocity), arcs of 3.2 mm radius at 26.2 mm/s where 37.1 is
+    /// allowed; 202.7 s against 182.6 s with those arcs flattened. There, only arcs that
+    /// meet the program's own lines (or the run's ends) at both ends stay native
+    /// ([`crate::writer::NATIVE_ARC_MIN_BLOCKS`]).
+    pub fn keeps_long_arcs(self) -> bool {
+        !matches!(self, Dialect::LinuxCnc)
+    }
+
     /// Whether the controller reads `G5` cubic Béziers (XY plane).
     pub fn has_g5(self) -> bool {
         matches!(self, Dialect::LinuxCnc | Dialect::GrblHal | Dialect::Marlin)

@@ -63,6 +63,11 @@ pub struct RewriteOptions {
     /// floor are lifted where the written path stays within its tolerance of the
     /// programmed path ([`crate::chain::lift_short_blocks`]). Default `None`.
     pub block_floor: Option<BlockFloor>,
+    /// Under the chaining emitters, an arc that would take
+    /// [`crate::writer::NATIVE_ARC_MIN_BLOCKS`] chords stays one `G2`/`G3`; `false`
+    /// flattens it with the rest of its run where it meets a flattened curve
+    /// ([`crate::Dialect::keeps_long_arcs`]). Default true.
+    pub long_arcs: bool,
 }
 
 /// The shortest block a stepper controller should be given, and the tolerance against
@@ -91,6 +96,7 @@ impl Default for RewriteOptions {
             arc_planes: 0b111,
             rewrite_unchanged: false,
             block_floor: None,
+            long_arcs: true,
         }
     }
 }
@@ -166,10 +172,12 @@ impl RewriteOptions {
         RewriteOptions { emit, ..self }
     }
 
-    /// The same options for `dialect`: its arc planes and, when it blends, `blend`.
+    /// The same options for `dialect`: its arc planes, whether it keeps long arcs and,
+    /// when it blends, `blend`.
     pub fn for_dialect(self, dialect: crate::Dialect, blend: Option<Blend>) -> RewriteOptions {
         RewriteOptions {
             arc_planes: dialect.arc_planes(),
+            long_arcs: dialect.keeps_long_arcs(),
             blend: if dialect.blends() { blend } else { None },
             ..self
         }
@@ -837,6 +845,7 @@ impl<'a> Region<'a> {
                     min_block_mm: 0.0,
                     min_block_s: 0.0,
                     arcs: true,
+                    long_arcs: opts.long_arcs,
                 }),
                 Emit::Lines {
                     min_block_mm,
@@ -853,6 +862,7 @@ impl<'a> Region<'a> {
                     min_block_mm,
                     min_block_s,
                     arcs: false,
+                    long_arcs: opts.long_arcs,
                 }),
             },
             g5: matches!(opts.emit, Emit::G5 { .. } | Emit::Nurbs { .. }),

@@ -221,6 +221,10 @@ pub(crate) struct ChainMode {
     pub min_block_s: f64,
     /// Fit XY arcs (G2/G3) as well as lines.
     pub arcs: bool,
+    /// Arcs that would take [`NATIVE_ARC_MIN_BLOCKS`] chords stay `G2`/`G3` and end the
+    /// chain; `false` flattens those next to a flattened curve with the rest
+    /// ([`crate::Dialect::keeps_long_arcs`], [`MotionWriter::chainable_at`]).
+    pub long_arcs: bool,
 }
 
 /// The programmed path of the moves being written and the tolerance left for the written
@@ -320,8 +324,9 @@ pub(crate) struct MotionWriter {
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
 /// Under the long-lines emitter, an arc whose flattening within the chord takes at least
-/// this many lines is written as `G2`/`G3` (where its plane allows) and ends the chain of
-/// lines; shorter arcs (the small transitions of a smoothed corner) join the chain.
+/// this many lines is written as `G2`/`G3` (where its plane allows and the dialect keeps
+/// long arcs, [`crate::Dialect::keeps_long_arcs`]) and ends the chain of lines; shorter
+/// arcs (the small transitions of a smoothed corner) join the chain.
 pub const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
 
 /// Largest spread of Z (mm) among the control points of a curve written as `G5`/`G5.2`
@@ -637,15 +642,42 @@ impl MotionWriter {
         q
     }
 
-    /// Whether `m` may join a chain of long G1 blocks: a feed move without extra axes
-    /// (their values are distributed along each programmed move) outside diameter mode.
-    fn chainable(&self, m: &Move) -> bool {
+    /// Whether `m` may join a chain of long G1 blocks, long arcs aside
+    /// ([`MotionWriter::chainable_at`]): a feed move without extra axes (their values are
+    /// distributed along each programmed move) outside diameter mode, and no curve that
+    /// `G5`/`G5.2` carries.
+    fn chain_candidate(&self, m: &Move) -> bool {
         m.kind == MoveKind::Feed
             && m.extra.is_none()
             && !self.frame.diameter
-            && !self.long_arc(&m.segment)
             && !self.g5_able(&m.segment)
             && !self.nurbs_able(&m.segment)
+    }
+
+    /// Whether `moves[k]` may join a chain. A long arc stays native when the dialect keeps
+    /// long arcs ([`ChainMode::long_arcs`]); otherwise only where both its neighbours meet
+    /// it as programmed: a line (the program's own joint, tangent or a corner), another
+    /// native move or the end of the run. Next to a flattened curve, whose first chord is
+    /// off the arc's tangent by half its turn, it is flattened too.
+    fn chainable_at(&self, moves: &[&Move], k: usize) -> bool {
+        let m = moves[k];
+        if !self.chain_candidate(m) {
+            return false;
+        }
+        if !self.long_arc(&m.segment) {
+            return true;
+        }
+        if self.frame.chain.is_none_or(|c| c.long_arcs) {
+            return false;
+        }
+        let meets_as_programmed = |j: Option<usize>| {
+            j.and_then(|j| moves.get(j)).is_none_or(|n| {
+                matches!(n.segment, Segment::Line(_))
+                    || !self.chain_candidate(n)
+                    || self.long_arc(&n.segment)
+            })
+        };
+        !(meets_as_programmed(k.checked_sub(1)) && meets_as_programmed(Some(k + 1)))
     }
 
     /// Whether `s` is a NURBS that `G5.2` carries: NURBS output is on, the curve lies in
@@ -802,17 +834,17 @@ impl MotionWriter {
         while k < moves.len() {
             let m = moves[k];
             let mut e = k + 1;
-            if self.chainable(m) {
+            let chainable = self.chainable_at(moves, k);
+            if chainable {
                 while e < moves.len()
-                    && self.chainable(moves[e])
+                    && self.chainable_at(moves, e)
                     && moves[e].feed_mm_s == m.feed_mm_s
                 {
                     e += 1;
                 }
             }
             // A lone line or arc is written as itself; a lone curve is flattened as a chain.
-            let lone_curve =
-                self.chainable(m) && !matches!(m.segment, Segment::Line(_) | Segment::Arc(_));
+            let lone_curve = chainable && !matches!(m.segment, Segment::Line(_) | Segment::Arc(_));
             if e - k > 1 || lone_curve {
                 let min_block = mode
                     .min_block_mm
