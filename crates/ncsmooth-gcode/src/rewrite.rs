@@ -704,10 +704,29 @@ struct Region<'a> {
 /// the lines it is written on when a comment or other unchanged line ends the run.
 const FLOOR_CONTEXT_MOVES: usize = 8;
 
+/// Significant digits `G64 P Q` keep at least, beyond the coordinates' decimals: rounded
+/// down to the coordinates' 5 inch decimals, the default `P` of 0.001 mm (3.94e-5 in)
+/// printed as `P0.00003`, a quarter of the blending given away.
+const BLEND_SIGNIFICANT_DIGITS: i32 = 3;
+
+/// Decimals that print `v` (program units, positive) with [`BLEND_SIGNIFICANT_DIGITS`]
+/// significant digits, at least `decimals` and at most [`crate::writer::MAX_DECIMALS`].
+fn blend_decimals(v: f64, decimals: usize) -> usize {
+    if !(v > 0.0 && v.is_finite()) {
+        return decimals;
+    }
+    let first_digit = (-v.log10()).ceil().max(0.0) as i32;
+    let want = (first_digit + BLEND_SIGNIFICANT_DIGITS - 1).max(0) as usize;
+    want.clamp(decimals, crate::writer::MAX_DECIMALS.max(decimals))
+}
+
 /// `G64 P Q` (or `G61` when `P` would print as 0, which LinuxCNC reads as no bound) for
-/// `blend` in a program in `units`, each value rounded down to `decimals`.
+/// `blend` in a program in `units`, each value rounded down to at least `decimals` and
+/// [`BLEND_SIGNIFICANT_DIGITS`] significant digits, so the bound written never exceeds
+/// the one asked for.
 fn blend_text(blend: Blend, units: Units, decimals: usize) -> String {
     let scale = unit_mm(units);
+    let decimals = blend_decimals(blend.p_mm / scale, decimals);
     let p10 = 10f64.powi(decimals as i32);
     let down = |v: f64| (v / scale * p10).floor() / p10;
     let (p, q) = (down(blend.p_mm), down(blend.q_mm));

@@ -409,11 +409,17 @@ fn blending_is_bounded_around_smoothed_runs() {
         t.contains("G64 P0.001 Q0.0005\n") && t.matches("G64").count() == 3,
         "{t}"
     );
-    // Inch program: P in inches, rounded down to 5 decimals.
+    // Inch program: P in inches, rounded down to 3 significant digits (the coordinates'
+    // 5 decimals would give 0.00039, and 0.00003 for the default 0.001 mm).
     let t = run("G20\nG0 X0 Y0 F10\nG1 X1\nG1 X2 Y1\nM2\n", 0.01);
-    assert!(t.contains("G64 P0.00039 Q0\n"), "{t}");
-    // 1e-5 mm prints as P0 with 4 decimals: exact path instead.
+    assert!(t.contains("G64 P0.000393 Q0\n"), "{t}");
+    let t = run("G20\nG0 X0 Y0 F10\nG1 X1\nG1 X2 Y1\nM2\n", 0.001);
+    assert!(t.contains("G64 P0.0000393 Q0\n"), "{t}");
+    // A small P keeps its digits too.
     let t = run("G0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM2\n", 1e-5);
+    assert!(t.contains("G64 P0.00001 Q0\n"), "{t}");
+    // 1e-14 mm prints as P0 even with the most decimals: exact path instead.
+    let t = run("G0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM2\n", 1e-14);
     assert!(t.contains("G61\n") && !t.contains("G64"), "{t}");
     // The written modes read back as such.
     let q = parse(&t).unwrap();
