@@ -3,12 +3,14 @@
 
     [NCSMOOTH_BIN=...] scripts/controller_table.py [--tol 0.01] [--feed 50] [--acc 500] [--no-linuxcnc]
                                 [--methods bspline,arc,nurbs,trig] [--emit lines,native]
-                                [FILE ...]
+                                [--input-p P] [--input-q Q] [FILE ...]
 
 For every file (default: butterfly_1000, crown and three micro-segment files of
 ../shared/data/gcode) it runs
 
-  * the input on LinuxCNC's trajectory planner with `G64 P<tol>` (linuxcnc_run.py --p) and
+  * the input on LinuxCNC's trajectory planner with `G64 P<tol>` (linuxcnc_run.py --p; Q
+    defaults to P as in LinuxCNC, so its executed path can leave tol by up to Q: give
+    `--input-p/--input-q` for a baseline within tol, e.g. 0.0093 on butterfly_1000) and
     on grbl 1.1h (grbl_run.py, junction deviation $11 = tol);
   * `ncsmooth smooth --method M --emit E --dialect linuxcnc` on LinuxCNC (the program
     carries its own G64 P Q) with `--ref` the input, so the executed deviation is measured;
@@ -48,11 +50,13 @@ def last_json(out):
     return {}
 
 
-def linuxcnc(prog, a, ref=None, p=None):
+def linuxcnc(prog, a, ref=None, p=None, q=None):
     cmd = [sys.executable, os.path.join(TOOLS, "linuxcnc_run.py"), prog,
            "--vel", str(a.feed), "--acc", str(a.acc)]
     if p is not None:
         cmd += ["--p", str(p)]
+    if q is not None:
+        cmd += ["--q", str(q)]
     if ref:
         cmd += ["--ref", ref]
     r = subprocess.run(cmd, capture_output=True, text=True)
@@ -80,8 +84,8 @@ def smooth(src, out, method, emit, dialect, a):
 G64_WORD = re.compile(r"G0*64(?![0-9.])([^(;\r\n]*)", re.IGNORECASE)
 
 
-def with_blending_at(src, tol_mm, tmp):
-    """The input as the baseline runs it: `G64 P<tol>` (LinuxCNC's Q defaults to P).
+def with_blending_at(src, tol_mm, q_mm, tmp):
+    """The input as the baseline runs it: `G64 P<tol> Q<q>` (LinuxCNC's Q defaults to P).
 
     A program that sets its own `G64` (camotics_vcarve: `G64 P0.001` in inches, 0.0254 mm)
     would override the prepended one; its own are set to the same bound, in its units.
@@ -93,12 +97,13 @@ def with_blending_at(src, tol_mm, tmp):
         return src, ""
     inch = re.search(r"G0*20(?![0-9.])", text, re.IGNORECASE) is not None
     tol = tol_mm / 25.4 if inch else tol_mm
+    q = q_mm / 25.4 if inch else q_mm
     own = sorted(set(m.group(0).strip() for m in G64_WORD.finditer(text)))
-    fixed = G64_WORD.sub(lambda m: f"G64 P{tol:.6f} Q{tol:.6f}", text)
+    fixed = G64_WORD.sub(lambda m: f"G64 P{tol:.7f} Q{q:.7f}", text)
     out = os.path.join(tmp, os.path.basename(src) + ".g64.ngc")
     with open(out, "w", newline="") as f:
         f.write(fixed)
-    return out, f"its own {', '.join(own)} set to P{tol:.6f}{' in' if inch else ''}"
+    return out, f"its own {', '.join(own)} set to P{tol:.7f} Q{q:.7f}{' in' if inch else ''}"
 
 
 def ratio(x, base):
@@ -116,6 +121,12 @@ def main():
     ap.add_argument("--methods", default="bspline,arc,nurbs,trig")
     ap.add_argument("--emit", default="lines")
     ap.add_argument("--no-linuxcnc", action="store_true")
+    ap.add_argument("--input-p", type=float, default=None,
+                    help="G64 P (mm) of the input's LinuxCNC run [default: --tol]")
+    ap.add_argument("--input-q", type=float, default=None,
+                    help="G64 Q (mm) of the input's LinuxCNC run [default: P, LinuxCNC's own "
+                         "default; at Q = P = tol the input's executed path can leave tol: "
+                         "LinuxCNC merges within Q, then blends within P]")
     a = ap.parse_args()
     files = a.files or [os.path.join(SHARED, f) for f in DEFAULT_FILES]
     if not os.path.exists(BIN):
@@ -127,14 +138,16 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|---|")
     for src in files:
         name = os.path.basename(src)
-        base, note = with_blending_at(src, a.tol, tmp)
+        p_in = a.tol if a.input_p is None else a.input_p
+        q_in = p_in if a.input_q is None else a.input_q
+        base, note = with_blending_at(src, p_in, q_in, tmp)
         if note:
             print(f"({name}: the input runs with {note})")
-        lc_in = {} if a.no_linuxcnc else linuxcnc(base, a, ref=src, p=a.tol)
+        lc_in = {} if a.no_linuxcnc else linuxcnc(base, a, ref=src, p=p_in, q=q_in)
         gr_in = grbl(src, a)
         lc_t, gr_t = lc_in.get("cycle_time_s"), gr_in.get("cycle_time_s")
         dev_in = max(lc_in.get("dev_path_to_ref_max_mm", 0), lc_in.get("dev_ref_to_path_max_mm", 0))
-        print(f"| {name} | input | G64 P{a.tol} | - | - | {ratio(lc_t, lc_t)} | {dev_in:.5f} "
+        print(f"| {name} | input | G64 P{p_in} Q{q_in} | - | - | {ratio(lc_t, lc_t)} | {dev_in:.5f} "
               f"| {ratio(gr_t, gr_t)} | {gr_in.get('n_errors', '-')} "
               f"| {gr_in.get('min_block_mm', '-')} |", flush=True)
         for method in a.methods.split(","):
