@@ -37,6 +37,11 @@
 //!   the run's middle point, the transitions' tolerance reduced by the shift; each of their
 //!   corners would need an arc below `min_radius_mm` and stop (camotics_vcarve: 99 stops
 //!   became 76, ugs_Gates_combined_R12: 96 became 66).
+//! * Nearly straight stretches of lines lose the vertices they do not need
+//!   (`simplify_straight_runs`, Douglas-Peucker within the same micro-leg share, taken
+//!   from the transitions' tolerance): a cluster of quantised steps too long to be one
+//!   merged corner otherwise has corners between sub-micrometre legs (camotics_vcarve: 84
+//!   exact stops became 11). Lines next to a kept piece keep their direction.
 //! * Reversals: as `beta -> 180 deg`, `R -> 0`. A turn whose legs span no plane (exact
 //!   reversal) or whose arc would be smaller than [`ArcOptions::min_radius_mm`] (about 179
 //!   degrees and above at tol 0.01 mm) is kept as an exact stop and counted in
@@ -56,7 +61,7 @@
 //!   corner of a closed chain is where the chain is entered and left, so it stays a stop.
 
 use super::{Chain, ChainPos, OutPiece, SmoothOptions, SmoothReport};
-use crate::geom::{Arc, ParamCurve, Segment, Vec3};
+use crate::geom::{Arc, Line, ParamCurve, Segment, Vec3};
 use crate::path::Move;
 use crate::verify::DEGENERATE_MM;
 
@@ -337,6 +342,123 @@ pub(crate) fn blend_items(
     out
 }
 
+/// Drops the vertices of nearly straight stretches of lines: within each stretch of
+/// connected trimmable lines (share 1/2), the Douglas-Peucker simplification with
+/// tolerance `eps_mm` keeps only the vertices the shape needs. CAM files that sample a
+/// curve in quantised micro-steps (camotics_vcarve: runs of 0.2-0.3 um moves along a
+/// straight tool path, more than `micro_mm` long in all, so [`merge_micro_legs`] cannot
+/// make them one corner) otherwise give corners between sub-micrometre legs, whose arcs
+/// fall below [`ArcOptions::min_radius_mm`]: 84 exact stops on camotics_vcarve.
+///
+/// Each kept line joins two programmed points whose skipped points lie within `eps_mm`
+/// of it, so the two polylines are within `eps_mm` of each other both ways (the skipped
+/// points' projections cover the line). Returns `eps_mm` when a vertex was dropped (the
+/// transitions take it from their tolerance), else 0.
+pub(crate) fn simplify_straight_runs(items: &mut Vec<Item>, eps_mm: f64) -> f64 {
+    let trimmable = |it: &Item| matches!(it, Item::Line { share, .. } if *share == 0.5);
+    let mut out: Vec<Item> = Vec::with_capacity(items.len());
+    let mut dropped = false;
+    let mut i = 0;
+    while i < items.len() {
+        // A line after a kept piece (a run curve, an input arc) may be tangent to it: it
+        // keeps its direction, and so does the last line before one.
+        if i > 0 && matches!(items[i - 1], Item::Fixed { .. }) {
+            out.push(items[i].clone());
+            i += 1;
+            continue;
+        }
+        let mut end = i;
+        while end < items.len() && trimmable(&items[end]) && joins(&items[i..end], &items[end]) {
+            end += 1;
+        }
+        if matches!(items.get(end), Some(Item::Fixed { .. })) && end > i + 1 {
+            end -= 1;
+        }
+        if end - i < 2 {
+            out.push(items[i].clone());
+            i += 1;
+            continue;
+        }
+        let stretch = &items[i..end];
+        let pts: Vec<Vec3> = std::iter::once(line_ends(&stretch[0]).0)
+            .chain(stretch.iter().map(|it| line_ends(it).1))
+            .collect();
+        let keep = douglas_peucker(&pts, eps_mm);
+        dropped |= keep.iter().filter(|&&k| k).count() < pts.len();
+        let kept: Vec<usize> = (0..pts.len()).filter(|&k| keep[k]).collect();
+        for w in kept.windows(2) {
+            let (a, b) = (&stretch[w[0]], &stretch[w[1] - 1]);
+            out.push(Item::Line {
+                p0: pts[w[0]],
+                p1: pts[w[1]],
+                from: item_from(a),
+                to: item_to(b),
+                share: 0.5,
+            });
+        }
+        i = end;
+    }
+    *items = out;
+    if dropped {
+        eps_mm
+    } else {
+        0.0
+    }
+}
+
+/// Whether `next` starts where the last of `run` ends (true for an empty run).
+fn joins(run: &[Item], next: &Item) -> bool {
+    run.last()
+        .is_none_or(|last| line_ends(last).1.dist(line_ends(next).0) <= crate::verify::GAP_TOL_MM)
+}
+
+/// The ends of a line item (a fixed item's are never asked for).
+fn line_ends(it: &Item) -> (Vec3, Vec3) {
+    match it {
+        Item::Line { p0, p1, .. } => (*p0, *p1),
+        Item::Fixed { segment, .. } => (segment.start(), segment.end()),
+    }
+}
+
+fn item_from(it: &Item) -> ChainPos {
+    match it {
+        Item::Line { from, .. } | Item::Fixed { from, .. } => *from,
+    }
+}
+
+fn item_to(it: &Item) -> ChainPos {
+    match it {
+        Item::Line { to, .. } | Item::Fixed { to, .. } => *to,
+    }
+}
+
+/// Douglas-Peucker (iterative): which of `pts` to keep so that every dropped point lies
+/// within `eps_mm` of the kept line spanning it. The ends are always kept.
+fn douglas_peucker(pts: &[Vec3], eps_mm: f64) -> Vec<bool> {
+    let mut keep = vec![false; pts.len()];
+    keep[0] = true;
+    keep[pts.len() - 1] = true;
+    let mut stack = vec![(0, pts.len() - 1)];
+    while let Some((a, b)) = stack.pop() {
+        let chord = Line::new(pts[a], pts[b]);
+        let far = (a + 1..b).map(|k| (k, chord.dist_sq(pts[k]).sqrt())).fold(
+            None,
+            |m: Option<(usize, f64)>, (k, d)| match m {
+                Some((_, md)) if md >= d => m,
+                _ => Some((k, d)),
+            },
+        );
+        if let Some((k, d)) = far {
+            if d > eps_mm {
+                keep[k] = true;
+                stack.push((a, k));
+                stack.push((k, b));
+            }
+        }
+    }
+    keep
+}
+
 /// Merges every run of micro-legs (lines no longer than `micro_mm`, a CAM file's
 /// quantisation: camotics_vcarve's 1e-6 inch steps in arbitrary directions) lying between
 /// two longer lines into one corner: the line before ends, and the line after starts, at
@@ -457,7 +579,9 @@ pub fn smooth_arc(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRe
     if items.is_empty() {
         return super::passthrough(chain);
     }
-    let shift = merge_micro_legs(&mut items, opts.tol_mm * MICRO_LEG_SHARE);
+    let micro_mm = opts.tol_mm * MICRO_LEG_SHARE;
+    let shift = simplify_straight_runs(&mut items, micro_mm);
+    let shift = shift + merge_micro_legs(&mut items, micro_mm);
     let pieces = blend_items(
         &items,
         opts.tol_mm - shift,
@@ -711,6 +835,31 @@ mod tests {
         let tp = Toolpath::from_polyline(&pts, Some(10.0));
         let (_, unmerged) = blend_as_programmed(&tp, tol);
         assert!(unmerged.corners_stopped > 0, "{unmerged:?}");
+        let s = smooth(&tp, &arc_opts(tol)).unwrap();
+        assert_eq!(s.report.corners_stopped, 0, "{:?}", s.report);
+        assert_eq!(crate::verify::continuity(&s.toolpath).g0, 0);
+        assert!(deviation(&s.toolpath, &tp, 1e-6).max_mm() <= tol);
+        check_polyline(&pts, tol);
+    }
+
+    #[test]
+    fn straight_runs_of_micro_steps_lose_their_vertices() {
+        // A long line, then 12 steps of 25-80 nm in quantised directions along it (0.6 um
+        // in all, more than `micro_mm` from its middle, so not one merged corner), then a
+        // line turning by 30 degrees: each step's corners needed an arc below
+        // min_radius_mm and stopped; simplified, the steps are part of the lines.
+        let q = 2.54e-5;
+        let mut pts = vec![Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0)];
+        for k in 0..12 {
+            let (dx, dy) = [(1.0, 0.0), (2.0, 1.0), (1.0, -1.0), (2.0, 0.0)][k % 4];
+            let last = *pts.last().unwrap();
+            pts.push(last + Vec3::new(dx, dy, 0.0) * q);
+        }
+        let turn = 30f64.to_radians();
+        let last = *pts.last().unwrap();
+        pts.push(last + Vec3::new(turn.cos(), turn.sin(), 0.0) * 5.0);
+        let tol = 0.01;
+        let tp = Toolpath::from_polyline(&pts, Some(10.0));
         let s = smooth(&tp, &arc_opts(tol)).unwrap();
         assert_eq!(s.report.corners_stopped, 0, "{:?}", s.report);
         assert_eq!(crate::verify::continuity(&s.toolpath).g0, 0);

@@ -49,7 +49,8 @@
 //! `fit_deviation_per_run_mm` (the measured deviation) are given per emitted curve.
 
 use super::arc_corner::{
-    blend_items, merge_micro_legs, tangent_length, Item, CORNER_TOL_SHARE, MICRO_LEG_SHARE,
+    blend_items, merge_micro_legs, simplify_straight_runs, tangent_length, Item, CORNER_TOL_SHARE,
+    MICRO_LEG_SHARE,
 };
 use super::band_fit::{band_fit, EndCond};
 use super::run_mode::neighbour;
@@ -392,7 +393,9 @@ pub fn smooth_nurbs(
     if items.is_empty() {
         return super::passthrough(chain);
     }
-    let shift = merge_micro_legs(&mut items, opts.tol_mm * MICRO_LEG_SHARE);
+    let micro_mm = opts.tol_mm * MICRO_LEG_SHARE;
+    let shift = simplify_straight_runs(&mut items, micro_mm);
+    let shift = shift + merge_micro_legs(&mut items, micro_mm);
     let pieces = blend_items(
         &items,
         opts.tol_mm - shift,
