@@ -352,26 +352,41 @@ pub(crate) fn blend_items(
 ///
 /// Each kept line joins two programmed points whose skipped points lie within `eps_mm`
 /// of it, so the two polylines are within `eps_mm` of each other both ways (the skipped
-/// points' projections cover the line). Returns `eps_mm` when a vertex was dropped (the
+/// points' projections cover the line). Lines next to a kept piece, and a streamed
+/// chain's open ends, keep their direction. Returns `eps_mm` when a vertex was dropped (the
 /// transitions take it from their tolerance), else 0.
-pub(crate) fn simplify_straight_runs(items: &mut Vec<Item>, eps_mm: f64) -> f64 {
-    let trimmable = |it: &Item| matches!(it, Item::Line { share, .. } if *share == 0.5);
+pub(crate) fn simplify_straight_runs(items: &mut Vec<Item>, chain: &Chain<'_>, eps_mm: f64) -> f64 {
+    let moves = chain.moves;
+    // A merged line is written at the lowest feed of the moves it spans, with extra axes
+    // interpolated along it: a stretch keeps to one feed and to moves without extra axes.
+    let plain = |it: &Item| {
+        let m = &moves[item_from(it).index];
+        matches!(it, Item::Line { share, .. } if *share == 0.5) && m.extra.is_none() && !m.pinned
+    };
+    let feed = |it: &Item| moves[item_from(it).index].feed_mm_s;
     let mut out: Vec<Item> = Vec::with_capacity(items.len());
     let mut dropped = false;
     let mut i = 0;
     while i < items.len() {
         // A line after a kept piece (a run curve, an input arc) may be tangent to it: it
         // keeps its direction, and so does the last line before one.
-        if i > 0 && matches!(items[i - 1], Item::Fixed { .. }) {
+        // A chain cut by the streaming smoother is left along its first and last lines'
+        // own directions.
+        if (i > 0 && matches!(items[i - 1], Item::Fixed { .. })) || (i == 0 && chain.open_ends[0]) {
             out.push(items[i].clone());
             i += 1;
             continue;
         }
         let mut end = i;
-        while end < items.len() && trimmable(&items[end]) && joins(&items[i..end], &items[end]) {
+        while end < items.len()
+            && plain(&items[end])
+            && feed(&items[end]) == feed(&items[i])
+            && joins(&items[i..end], &items[end])
+        {
             end += 1;
         }
-        if matches!(items.get(end), Some(Item::Fixed { .. })) && end > i + 1 {
+        let last_open = end == items.len() && chain.open_ends[1];
+        if (last_open || matches!(items.get(end), Some(Item::Fixed { .. }))) && end > i + 1 {
             end -= 1;
         }
         if end - i < 2 {
@@ -433,7 +448,8 @@ fn item_to(it: &Item) -> ChainPos {
 }
 
 /// Douglas-Peucker (iterative): which of `pts` to keep so that every dropped point lies
-/// within `eps_mm` of the kept line spanning it. The ends are always kept.
+/// within `eps_mm` of the kept line spanning it, and no kept line is shorter than
+/// [`DEGENERATE_MM`] where a point was dropped. The ends are always kept.
 fn douglas_peucker(pts: &[Vec3], eps_mm: f64) -> Vec<bool> {
     let mut keep = vec![false; pts.len()];
     keep[0] = true;
@@ -449,7 +465,9 @@ fn douglas_peucker(pts: &[Vec3], eps_mm: f64) -> Vec<bool> {
             },
         );
         if let Some((k, d)) = far {
-            if d > eps_mm {
+            // A stretch that returns to its start keeps its farthest point: a kept line
+            // is never degenerate.
+            if d > eps_mm || pts[a].dist(pts[b]) <= DEGENERATE_MM {
                 keep[k] = true;
                 stack.push((a, k));
                 stack.push((k, b));
@@ -580,7 +598,7 @@ pub fn smooth_arc(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRe
         return super::passthrough(chain);
     }
     let micro_mm = opts.tol_mm * MICRO_LEG_SHARE;
-    let shift = simplify_straight_runs(&mut items, micro_mm);
+    let shift = simplify_straight_runs(&mut items, chain, micro_mm);
     let shift = shift + merge_micro_legs(&mut items, micro_mm);
     let pieces = blend_items(
         &items,
@@ -865,6 +883,37 @@ mod tests {
         assert_eq!(crate::verify::continuity(&s.toolpath).g0, 0);
         assert!(deviation(&s.toolpath, &tp, 1e-6).max_mm() <= tol);
         check_polyline(&pts, tol);
+    }
+
+    #[test]
+    fn straight_runs_keep_to_one_feed() {
+        // A 5 mm line and quantised steps along it at 10 mm/s, then steps and a turning
+        // line at 2 mm/s (cncjs_jsdc's cut and plunge feeds): one merged line would be
+        // written at the lower feed over its whole length (2 s longer on grbl).
+        let q = 2.54e-5;
+        let mut pts = vec![Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0)];
+        for k in 0..24 {
+            let (dx, dy) = [(1.0, 0.0), (2.0, 1.0), (1.0, -1.0), (2.0, 0.0)][k % 4];
+            let last = *pts.last().unwrap();
+            pts.push(last + Vec3::new(dx, dy, 0.0) * q);
+        }
+        let turn = 30f64.to_radians();
+        let last = *pts.last().unwrap();
+        pts.push(last + Vec3::new(turn.cos(), turn.sin(), 0.0) * 5.0);
+        let mut tp = Toolpath::new(pts[0]);
+        for (i, w) in pts.windows(2).enumerate() {
+            let feed = if i <= 12 { 10.0 } else { 2.0 };
+            tp.push_move(Move::feed(Line::new(w[0], w[1]), Some(feed), i as u32 + 1));
+        }
+        let s = smooth(&tp, &arc_opts(0.01)).unwrap();
+        let fast: f64 = s
+            .toolpath
+            .moves()
+            .filter(|m| m.feed_mm_s == Some(10.0))
+            .map(|m| m.segment.length(1e-9))
+            .sum();
+        assert!(fast > 4.9, "{fast} mm at 10 mm/s");
+        assert!(deviation(&s.toolpath, &tp, 1e-6).max_mm() <= 0.01);
     }
 
     fn polyline_strategy() -> impl Strategy<Value = (Vec<Vec3>, f64)> {

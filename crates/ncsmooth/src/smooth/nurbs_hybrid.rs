@@ -394,7 +394,7 @@ pub fn smooth_nurbs(
         return super::passthrough(chain);
     }
     let micro_mm = opts.tol_mm * MICRO_LEG_SHARE;
-    let shift = simplify_straight_runs(&mut items, micro_mm);
+    let shift = simplify_straight_runs(&mut items, chain, micro_mm);
     let shift = shift + merge_micro_legs(&mut items, micro_mm);
     let pieces = blend_items(
         &items,
