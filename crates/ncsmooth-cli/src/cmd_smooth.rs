@@ -149,6 +149,16 @@ pub struct SmoothArgs {
     /// LinuxCNC: `G64 Q` (mm), the naive-CAM merging allowed, paid from --tol [default: 0].
     #[arg(long)]
     pub g64_q: Option<f64>,
+    /// LinuxCNC: the machine's acceleration (mm/s^2). Blocks of gently curved stretches
+    /// then get a smaller `G64 P` where the feed allows, so that LinuxCNC's blends leave
+    /// their lines (it accelerates along what a blend consumes with half of it)
+    /// [default: none, one `P` per run].
+    #[arg(long)]
+    pub acc: Option<f64>,
+    /// LinuxCNC, with --acc: the machine's fastest feed (mm/s; a lower programmed F
+    /// wins) [default: the programmed feeds].
+    #[arg(long, requires = "acc")]
+    pub feed: Option<f64>,
 }
 
 /// Dialect names.
@@ -214,6 +224,10 @@ pub struct WriteSettings {
     pub emit: Option<EmitArg>,
     /// LinuxCNC `G64 P` and `Q` (mm); `None` for the defaults (tol / 10 and 0).
     pub g64: (Option<f64>, Option<f64>),
+    /// LinuxCNC: the machine's acceleration (mm/s^2) for per-block `G64 P`.
+    pub acc_mm_s2: Option<f64>,
+    /// LinuxCNC: the machine's fastest feed (mm/s) for per-block `G64 P`.
+    pub feed_mm_s: Option<f64>,
 }
 
 impl WriteSettings {
@@ -226,6 +240,8 @@ impl WriteSettings {
             dialect: Dialect::LinuxCnc,
             emit: None,
             g64: (None, None),
+            acc_mm_s2: None,
+            feed_mm_s: None,
         }
     }
 }
@@ -526,6 +542,7 @@ pub fn smooth_program(
             dialect.name()
         ))
         .for_dialect(dialect, blend)
+        .with_blend_limits(ws.acc_mm_s2, ws.feed_mm_s)
         .with_emit(match emit {
             EmitArg::Native => Emit::Native,
             EmitArg::Arcs => Emit::Arcs,
@@ -654,6 +671,8 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         dialect: a.dialect.into(),
         emit: a.emit,
         g64: (a.g64_p, a.g64_q),
+        acc_mm_s2: a.acc,
+        feed_mm_s: a.feed,
     };
     let mut out = smooth_program(name, &loaded.src, program, base, ws)?;
     out.report.timings.parse_s = parse_s;

@@ -1668,6 +1668,49 @@ fn grbl_arc_to_line_corners_have_no_short_blocks() {
 /// velocity (2 mm/s on linuxcnc_blur_torus), so for LinuxCNC the arc is flattened with
 /// the rest of the run; other dialects keep it one `G2`/`G3`, and so does LinuxCNC where
 /// the arc meets the program's own lines.
+/// With the machine's limits, LinuxCNC gets a smaller `G64 P` on gently curved blocks
+/// (never a larger one than the run's), within tol; without them, one `P` per run.
+#[test]
+fn linuxcnc_blending_follows_the_feed_with_acc() {
+    let d = tmpdir("linuxcnc_blend_schedule");
+    let mut src = String::from("G21 G90 G17\nG0 X40 Y0\nG1 F3000\n");
+    for k in 1..=75 {
+        let a = (1.2 * k as f64).to_radians();
+        src.push_str(&format!(
+            "G1 X{:.4} Y{:.4}\n",
+            40.0 * a.cos(),
+            40.0 * a.sin()
+        ));
+    }
+    src.push_str("G1 X-10 Y40\nM2\n");
+    let f = write(&d, "quarter.ngc", src.as_bytes());
+    let p_values = |args: &[&str]| -> Vec<f64> {
+        let out = d.join("quarter-out.ngc");
+        let mut a = vec!["smooth", f.to_str().unwrap(), "--method", "nurbs", "-o"];
+        a.push(out.to_str().unwrap());
+        a.extend_from_slice(args);
+        let o = run(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(&out).unwrap();
+        text.lines()
+            .filter_map(|l| l.strip_prefix("G64 P"))
+            .map(|l| l.split(' ').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let one = p_values(&[]);
+    assert!(
+        !one.is_empty() && one.iter().all(|&p| p == 0.001),
+        "{one:?}"
+    );
+    // 50 mm/s at 500 mm/s^2 needs a 5.77 mm radius: a quarter of P on the 40 mm arc.
+    let scheduled = p_values(&["--acc", "500", "--feed", "50"]);
+    assert!(scheduled.iter().all(|&p| p <= 0.001), "{scheduled:?}");
+    assert!(scheduled.contains(&0.00025), "{scheduled:?}");
+    // --feed needs --acc.
+    let o = run(&["smooth", f.to_str().unwrap(), "-o", "-", "--feed", "50"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
 #[test]
 fn linuxcnc_gets_long_arcs_of_smoothed_runs_as_lines() {
     let d = tmpdir("linuxcnc_long_arcs");

@@ -68,6 +68,14 @@ pub struct RewriteOptions {
     /// flattens it with the rest of its run where it meets a flattened curve
     /// ([`crate::Dialect::keeps_long_arcs`]). Default true.
     pub long_arcs: bool,
+    /// With [`RewriteOptions::blend`]: the machine's acceleration (mm/s^2). Blocks on
+    /// gently curved stretches then get a smaller `P` ([`crate::writer::BlendSchedule`]),
+    /// so that LinuxCNC's blends leave their lines, along which it accelerates with the
+    /// whole of it. Default `None`: one `P` for the whole run.
+    pub blend_acc_mm_s2: Option<f64>,
+    /// With [`RewriteOptions::blend_acc_mm_s2`]: the machine's fastest feed (mm/s).
+    /// Default `None`: the programmed feeds.
+    pub blend_feed_mm_s: Option<f64>,
 }
 
 /// The shortest block a stepper controller should be given, and the tolerance against
@@ -97,6 +105,8 @@ impl Default for RewriteOptions {
             rewrite_unchanged: false,
             block_floor: None,
             long_arcs: true,
+            blend_acc_mm_s2: None,
+            blend_feed_mm_s: None,
         }
     }
 }
@@ -202,6 +212,20 @@ impl RewriteOptions {
     /// The same options with LinuxCNC blending bounds.
     pub fn with_blend(self, blend: Option<Blend>) -> RewriteOptions {
         RewriteOptions { blend, ..self }
+    }
+
+    /// The same options with the machine's acceleration and fastest feed for the
+    /// blending schedule ([`RewriteOptions::blend_acc_mm_s2`]).
+    pub fn with_blend_limits(
+        self,
+        acc_mm_s2: Option<f64>,
+        feed_mm_s: Option<f64>,
+    ) -> RewriteOptions {
+        RewriteOptions {
+            blend_acc_mm_s2: acc_mm_s2,
+            blend_feed_mm_s: feed_mm_s,
+            ..self
+        }
     }
 
     /// The same options with header lines.
@@ -704,45 +728,9 @@ struct Region<'a> {
 /// the lines it is written on when a comment or other unchanged line ends the run.
 const FLOOR_CONTEXT_MOVES: usize = 8;
 
-/// Significant digits `G64 P Q` keep at least, beyond the coordinates' decimals: rounded
-/// down to the coordinates' 5 inch decimals, the default `P` of 0.001 mm (3.94e-5 in)
-/// printed as `P0.00003`, a quarter of the blending given away.
-const BLEND_SIGNIFICANT_DIGITS: i32 = 3;
-
-/// Decimals that print `v` (program units, positive) with [`BLEND_SIGNIFICANT_DIGITS`]
-/// significant digits, at least `decimals` and at most [`crate::writer::MAX_DECIMALS`].
-fn blend_decimals(v: f64, decimals: usize) -> usize {
-    if !(v > 0.0 && v.is_finite()) {
-        return decimals;
-    }
-    let first_digit = (-v.log10()).ceil().max(0.0) as i32;
-    let want = (first_digit + BLEND_SIGNIFICANT_DIGITS - 1).max(0) as usize;
-    want.clamp(decimals, crate::writer::MAX_DECIMALS.max(decimals))
-}
-
-/// `G64 P Q` (or `G61` when `P` would print as 0, which LinuxCNC reads as no bound) for
-/// `blend` in a program in `units`, each value rounded down to at least `decimals` and
-/// [`BLEND_SIGNIFICANT_DIGITS`] significant digits, so the bound written never exceeds
-/// the one asked for.
+/// `G64 P Q` for `blend` in a program in `units` ([`crate::writer::blend_words`]).
 fn blend_text(blend: Blend, units: Units, decimals: usize) -> String {
-    let scale = unit_mm(units);
-    let decimals = blend_decimals(blend.p_mm / scale, decimals);
-    let p10 = 10f64.powi(decimals as i32);
-    let down = |v: f64| (v / scale * p10).floor() / p10;
-    let (p, q) = (down(blend.p_mm), down(blend.q_mm));
-    if p.is_nan() || p <= 0.0 {
-        return "G61".to_string();
-    }
-    let mut t = String::from("G64 P");
-    push_fixed(&mut t, p, decimals);
-    if q > 0.0 {
-        t.push_str(" Q");
-        push_fixed(&mut t, q, decimals);
-    } else {
-        // Q0 turns the naive-CAM merging off (Q would otherwise default to P).
-        t.push_str(" Q0");
-    }
-    t
+    crate::writer::blend_words(blend.p_mm, blend.q_mm, unit_mm(units), decimals)
 }
 
 /// The text that sets path mode `mode` in a program in `units`, if it can be written.
@@ -890,6 +878,14 @@ impl<'a> Region<'a> {
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);
+        w.blend_schedule = opts.blend.zip(opts.blend_acc_mm_s2).map(|(b, acc_mm_s2)| {
+            crate::writer::BlendSchedule {
+                p_mm: b.p_mm,
+                q_mm: b.q_mm,
+                acc_mm_s2,
+                feed_max_mm_s: opts.blend_feed_mm_s.unwrap_or(f64::INFINITY),
+            }
+        });
         if let Some(m) = first {
             // Extra axes in use and known (E is always tracked from 0).
             let known_extra = ((st.known >> 3) & 0x3f) as u8 | 0x40;
