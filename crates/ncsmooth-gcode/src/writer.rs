@@ -338,6 +338,10 @@ pub(crate) fn blend_words(p_mm: f64, q_mm: f64, scale: f64, decimals: usize) -> 
 /// (tp.c `BLEND_ACC_RATIO_NORMAL`, `sqrt(1 - 0.5^2)`).
 pub const LINUXCNC_NORMAL_ACC_SHARE: f64 = 0.866_025_403_784_438_6;
 
+/// Servo periods of straight line LinuxCNC leaves between two blend arcs; a shorter
+/// remainder is consumed by the blends (tp.c `ARC_BLEND_GAP_CYCLES`).
+pub const LINUXCNC_BLEND_GAP_CYCLES: f64 = 4.0;
+
 /// Smallest share of `P` a block gets under a [`BlendSchedule`].
 pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 
@@ -350,7 +354,9 @@ pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 /// `tcGetTangentialMaxAccel`). Where the feed `v` needs no radius as large as `R`
 /// (`v^2 / (a_n R) < 1`, `v` the programmed feed or the machine's fastest if lower, `a_n` =
 /// [`LINUXCNC_NORMAL_ACC_SHARE`] of the acceleration) a
-/// smaller `P` still lets LinuxCNC hold the feed, and leaves it the lines. Each vertex
+/// smaller `P` still lets LinuxCNC hold the feed, and leaves it the lines (where they
+/// are long enough: a block whose blends would leave less than
+/// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line keeps all of `P`). Each vertex
 /// gets `P` times that ratio, clamped to [`BLEND_SCHEDULE_MIN_SHARE`]` ..= 1` and rounded
 /// up to a power of 2 (few `G64` lines); a block gets the larger of its two vertices'
 /// (a blend uses the smaller `P` of its two blocks), and the run's own `P` returns after
@@ -394,11 +400,28 @@ impl BlendSchedule {
             }
         };
         let n = pts.len();
+        // need[k]: the share at the vertex ending block k (the run's ends get all).
+        let need: Vec<f64> = (0..n)
+            .map(|k| if k + 1 == n { 1.0 } else { vertex(k) })
+            .collect();
+        // A block whose blends leave less than LinuxCNC's gap of straight line is consumed
+        // whatever its `P`: its vertices keep all of it, for the radius.
+        let gap_mm = v * LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
+        let mut share = need.clone();
+        for k in 0..n {
+            let before = if k == 0 { 1.0 } else { need[k - 1] };
+            let len = at(k).dist(at(k + 1));
+            if len * (1.0 - 0.5 * (before + need[k])) < gap_mm {
+                share[k] = 1.0;
+                if k > 0 {
+                    share[k - 1] = 1.0;
+                }
+            }
+        }
         (0..n)
             .map(|k| {
-                let before = if k == 0 { 1.0 } else { vertex(k - 1) };
-                let after = if k + 1 == n { 1.0 } else { vertex(k) };
-                let s = before.max(after);
+                let before = if k == 0 { 1.0 } else { share[k - 1] };
+                let s = before.max(share[k]);
                 // Rounded up to a power of 2.
                 2f64.powi(s.log2().ceil() as i32).min(1.0)
             })
@@ -1323,12 +1346,18 @@ mod tests {
             feed_max_mm_s: 50.0,
         };
         // 50 mm/s needs a radius of 2500 / 433 = 5.77 mm: on a 40 mm circle that is
-        // 0.144 of it, rounded up to 1/4; the run's ends keep all of P.
+        // 0.144 of it, rounded up to 1/4. The run's ends keep all of P, and so do the
+        // blocks next to them: a 0.4 mm chord blended for all of P at one end and 0.144
+        // at the other leaves 0.17 mm of line, under the 0.2 mm LinuxCNC consumes.
         let (start, pts) = circle_chords(40.0, 0.01, 20);
         let shares = s.shares(start, &pts, Some(100.0));
         assert_eq!(shares.len(), 20);
-        assert_eq!((shares[0], shares[19]), (1.0, 1.0));
-        assert!(shares[1..19].iter().all(|&x| x == 0.25), "{shares:?}");
+        assert_eq!(&shares[..2], &[1.0, 1.0]);
+        assert_eq!(&shares[18..], &[1.0, 1.0]);
+        assert!(shares[2..18].iter().all(|&x| x == 0.25), "{shares:?}");
+        // 0.08 mm chords are consumed whatever P: all of it, for the radius.
+        let (start, pts) = circle_chords(40.0, 0.002, 20);
+        assert!(s.shares(start, &pts, Some(50.0)).iter().all(|&x| x == 1.0));
         // A 5 mm circle needs more than it has: all of P. A 1000 mm one: the least.
         let (start, pts) = circle_chords(5.0, 0.01, 20);
         assert!(s.shares(start, &pts, Some(50.0)).iter().all(|&x| x == 1.0));
