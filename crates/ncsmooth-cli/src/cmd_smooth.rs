@@ -155,8 +155,9 @@ pub struct SmoothArgs {
     /// [default: none, one `P` per run].
     #[arg(long)]
     pub acc: Option<f64>,
-    /// LinuxCNC, with --acc: the machine's fastest feed (mm/s; a lower programmed F
-    /// wins) [default: the programmed feeds].
+    /// LinuxCNC, with --acc: the machine's fastest feed (mm/s, `MAX_VELOCITY`), which a
+    /// feed override may reach: the blends are sized for it [default: the programmed
+    /// feeds].
     #[arg(long, requires = "acc")]
     pub feed: Option<f64>,
 }

@@ -73,8 +73,8 @@ pub struct RewriteOptions {
     /// so that LinuxCNC's blends leave their lines, along which it accelerates with the
     /// whole of it. Default `None`: one `P` for the whole run.
     pub blend_acc_mm_s2: Option<f64>,
-    /// With [`RewriteOptions::blend_acc_mm_s2`]: the machine's fastest feed (mm/s).
-    /// Default `None`: the programmed feeds.
+    /// With [`RewriteOptions::blend_acc_mm_s2`]: the machine's fastest feed (mm/s), which
+    /// the blends are sized for. Default `None`: the programmed feeds.
     pub blend_feed_mm_s: Option<f64>,
 }
 
