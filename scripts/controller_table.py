@@ -12,9 +12,9 @@ For every file (default: butterfly_1000, crown and three micro-segment files of
     defaults to P as in LinuxCNC, so its executed path can leave tol by up to Q: give
     `--input-p/--input-q` for a baseline within tol, e.g. 0.0093 on butterfly_1000) and
     on grbl 1.1h (grbl_run.py, junction deviation $11 = tol);
-  * `ncsmooth smooth --method M --emit E --dialect linuxcnc` on LinuxCNC (the program
-    carries its own G64 P Q; `--schedule` passes `--acc A --feed F` for per-block P) with
-    `--ref` the input, so the executed deviation is measured;
+  * `ncsmooth smooth --method M --emit E --dialect linuxcnc --acc A --feed F` on LinuxCNC
+    (the program carries its own G64 P Q, per block from the harness's limits; `--one-p`
+    for one P per run) with `--ref` the input, so the executed deviation is measured;
   * `ncsmooth smooth --method M --emit E --dialect grbl` on grbl;
 
 and prints one Markdown table: blocks in and out, the shortest block, cycle times and their
@@ -75,7 +75,7 @@ def smooth(src, out, method, emit, dialect, a):
     rep = out + ".json"
     cmd = [BIN, "-q", "smooth", src, "--method", method, "--emit", emit,
            "--dialect", dialect, "--tol", str(a.tol), "-o", out, "--report", rep]
-    if dialect == "linuxcnc" and a.schedule:
+    if dialect == "linuxcnc" and not a.one_p:
         # The harness's limits: per-block G64 P for LinuxCNC's blending.
         cmd += ["--acc", str(a.acc), "--feed", str(a.feed)]
     r = subprocess.run(cmd, capture_output=True, text=True)
@@ -125,9 +125,9 @@ def main():
     ap.add_argument("--methods", default="bspline,arc,nurbs,trig")
     ap.add_argument("--emit", default="lines")
     ap.add_argument("--no-linuxcnc", action="store_true")
-    ap.add_argument("--schedule", action="store_true",
-                    help="LinuxCNC output with per-block G64 P (smooth --acc/--feed from the "
-                         "harness's limits); default one P per run")
+    ap.add_argument("--one-p", action="store_true",
+                    help="LinuxCNC output with one G64 P per run (without smooth --acc/--feed, "
+                         "which the harness's limits give by default)")
     ap.add_argument("--input-p", type=float, default=None,
                     help="G64 P (mm) of the input's LinuxCNC run [default: --tol]")
     ap.add_argument("--input-q", type=float, default=None,

@@ -1709,6 +1709,13 @@ fn linuxcnc_blending_follows_the_feed_with_acc() {
     // --feed needs --acc.
     let o = run(&["smooth", f.to_str().unwrap(), "-o", "-", "--feed", "50"]);
     assert_eq!(o.status.code(), Some(2));
+    // Programmed at 10 mm/s: the blends are sized for the machine's fastest feed when it
+    // is given (a feed override may reach it), for 10 mm/s otherwise.
+    let slow_src = src.replace("F3000", "F600");
+    std::fs::write(&f, slow_src).unwrap();
+    assert_eq!(p_values(&["--acc", "500", "--feed", "50"]), scheduled);
+    let programmed = p_values(&["--acc", "500"]);
+    assert!(programmed.iter().any(|&p| p < 0.00025), "{programmed:?}");
 }
 
 #[test]

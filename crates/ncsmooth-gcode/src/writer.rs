@@ -352,8 +352,8 @@ pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 /// With `P = c` the blend follows the curve but consumes every line, and LinuxCNC
 /// accelerates along what its blends consume with half the acceleration (tc.c
 /// `tcGetTangentialMaxAccel`). Where the feed `v` needs no radius as large as `R`
-/// (`v^2 / (a_n R) < 1`, `v` the programmed feed or the machine's fastest if lower, `a_n` =
-/// [`LINUXCNC_NORMAL_ACC_SHARE`] of the acceleration) a
+/// (`v^2 / (a_n R) < 1`, `v` the machine's fastest feed, or else the programmed one,
+/// `a_n` = [`LINUXCNC_NORMAL_ACC_SHARE`] of the acceleration) a
 /// smaller `P` still lets LinuxCNC hold the feed, and leaves it the lines (where they
 /// are long enough: a block whose blends would leave less than
 /// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line keeps all of `P`). Each vertex
@@ -371,7 +371,8 @@ pub struct BlendSchedule {
     pub q_mm: f64,
     /// The machine's acceleration (mm/s^2).
     pub acc_mm_s2: f64,
-    /// The machine's fastest feed (mm/s): a higher programmed feed is not reached.
+    /// The machine's fastest feed (mm/s), which a feed override may reach: the blends
+    /// are sized for it; infinite for the programmed feeds.
     pub feed_max_mm_s: f64,
 }
 
@@ -379,10 +380,8 @@ impl BlendSchedule {
     /// The share of `P` for each block from `start` through `pts` (one per point), or an
     /// empty list when `feed_mm_s` is unknown.
     pub fn shares(&self, start: Vec3, pts: &[Vec3], feed_mm_s: Option<f64>) -> Vec<f64> {
-        let Some(v) = feed_mm_s
-            .map(|v| v.min(self.feed_max_mm_s))
-            .filter(|v| *v > 0.0)
-        else {
+        let fastest = Some(self.feed_max_mm_s).filter(|v| v.is_finite());
+        let Some(v) = fastest.or(feed_mm_s).filter(|v| *v > 0.0) else {
             return Vec::new();
         };
         let r_need = v * v / (LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2);
@@ -1367,14 +1366,21 @@ mod tests {
             least[1..19].iter().all(|&x| x == BLEND_SCHEDULE_MIN_SHARE),
             "{least:?}"
         );
-        // A slower programmed feed needs less; no feed, no schedule.
+        // The machine's fastest feed counts, not a slower programmed one (a feed override
+        // may reach it). Without it, a slower programmed feed needs less; no feed, no
+        // schedule.
         let (start, pts) = circle_chords(40.0, 0.01, 20);
-        let slow = s.shares(start, &pts, Some(10.0));
+        assert_eq!(s.shares(start, &pts, Some(10.0)), shares);
+        let programmed = BlendSchedule {
+            feed_max_mm_s: f64::INFINITY,
+            ..s
+        };
+        let slow = programmed.shares(start, &pts, Some(10.0));
         assert!(
-            slow[1..19].iter().all(|&x| x == BLEND_SCHEDULE_MIN_SHARE),
+            slow[2..18].iter().all(|&x| x == BLEND_SCHEDULE_MIN_SHARE),
             "{slow:?}"
         );
-        assert!(s.shares(start, &pts, None).is_empty());
+        assert!(programmed.shares(start, &pts, None).is_empty());
     }
 
     #[test]
