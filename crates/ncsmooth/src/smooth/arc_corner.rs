@@ -860,15 +860,12 @@ mod tests {
         check_polyline(&pts, tol);
     }
 
-    #[test]
-    fn straight_runs_of_micro_steps_lose_their_vertices() {
-        // A long line, then 12 steps of 25-80 nm in quantised directions along it (0.6 um
-        // in all, more than `micro_mm` from its middle, so not one merged corner), then a
-        // line turning by 30 degrees: each step's corners needed an arc below
-        // min_radius_mm and stopped; simplified, the steps are part of the lines.
+    /// A 5 mm line, `steps` quantised steps of 25-80 nm along it (camotics_vcarve's 1e-6
+    /// inch moves), then a 5 mm line turning by 30 degrees.
+    fn quantised_steps_between_lines(steps: usize) -> Vec<Vec3> {
         let q = 2.54e-5;
         let mut pts = vec![Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0)];
-        for k in 0..12 {
+        for k in 0..steps {
             let (dx, dy) = [(1.0, 0.0), (2.0, 1.0), (1.0, -1.0), (2.0, 0.0)][k % 4];
             let last = *pts.last().unwrap();
             pts.push(last + Vec3::new(dx, dy, 0.0) * q);
@@ -876,6 +873,16 @@ mod tests {
         let turn = 30f64.to_radians();
         let last = *pts.last().unwrap();
         pts.push(last + Vec3::new(turn.cos(), turn.sin(), 0.0) * 5.0);
+        pts
+    }
+
+    #[test]
+    fn straight_runs_of_micro_steps_lose_their_vertices() {
+        // A long line, then 12 steps of 25-80 nm in quantised directions along it (0.6 um
+        // in all, more than `micro_mm` from its middle, so not one merged corner), then a
+        // line turning by 30 degrees: each step's corners needed an arc below
+        // min_radius_mm and stopped; simplified, the steps are part of the lines.
+        let pts = quantised_steps_between_lines(12);
         let tol = 0.01;
         let tp = Toolpath::from_polyline(&pts, Some(10.0));
         let s = smooth(&tp, &arc_opts(tol)).unwrap();
@@ -890,16 +897,7 @@ mod tests {
         // A 5 mm line and quantised steps along it at 10 mm/s, then steps and a turning
         // line at 2 mm/s (cncjs_jsdc's cut and plunge feeds): one merged line would be
         // written at the lower feed over its whole length (2 s longer on grbl).
-        let q = 2.54e-5;
-        let mut pts = vec![Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0)];
-        for k in 0..24 {
-            let (dx, dy) = [(1.0, 0.0), (2.0, 1.0), (1.0, -1.0), (2.0, 0.0)][k % 4];
-            let last = *pts.last().unwrap();
-            pts.push(last + Vec3::new(dx, dy, 0.0) * q);
-        }
-        let turn = 30f64.to_radians();
-        let last = *pts.last().unwrap();
-        pts.push(last + Vec3::new(turn.cos(), turn.sin(), 0.0) * 5.0);
+        let pts = quantised_steps_between_lines(24);
         let mut tp = Toolpath::new(pts[0]);
         for (i, w) in pts.windows(2).enumerate() {
             let feed = if i <= 12 { 10.0 } else { 2.0 };
