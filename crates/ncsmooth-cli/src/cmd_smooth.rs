@@ -149,10 +149,10 @@ pub struct SmoothArgs {
     /// LinuxCNC: `G64 Q` (mm), the naive-CAM merging allowed, paid from --tol [default: 0].
     #[arg(long)]
     pub g64_q: Option<f64>,
-    /// LinuxCNC: the machine's acceleration (mm/s^2). Blocks of gently curved stretches
-    /// then get a smaller `G64 P` where the feed allows, so that LinuxCNC's blends leave
-    /// their lines (it accelerates along what a blend consumes with half of it)
-    /// [default: none, one `P` per run].
+    /// LinuxCNC: the machine's acceleration (mm/s^2). Blocks then get a smaller `G64 P`
+    /// where the speed allows (gently curved stretches, and where LinuxCNC brakes for or
+    /// leaves a tight turn), so that its blends leave their lines (it accelerates along
+    /// what a blend consumes with half of it) [default: none, one `P` per run].
     #[arg(long)]
     pub acc: Option<f64>,
     /// LinuxCNC, with --acc: the machine's fastest feed (mm/s, `MAX_VELOCITY`), which a

@@ -2,7 +2,7 @@
 //!
 //! | dialect | blending the writer bounds | shortest block it aims for | arcs | G5 | longest line |
 //! |---|---|---|---|---|---|
-//! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::rewrite::Blend`]); with the machine's acceleration, a smaller `P` on gently curved blocks ([`crate::writer::BlendSchedule`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | yes | 256 |
+//! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::rewrite::Blend`]); with the machine's acceleration, a smaller `P` where the speed allows ([`crate::writer::BlendSchedule`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | yes | 256 |
 //! | `grbl` | none (grbl keeps the path, junction deviation only slows) | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | no | 79 stored |
 //! | `grblhal` | none | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | yes | 256 |
 //! | `marlin` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | yes | 95 stored |

@@ -68,8 +68,8 @@ pub struct RewriteOptions {
     /// flattens it with the rest of its run where it meets a flattened curve
     /// ([`crate::Dialect::keeps_long_arcs`]). Default true.
     pub long_arcs: bool,
-    /// With [`RewriteOptions::blend`]: the machine's acceleration (mm/s^2). Blocks on
-    /// gently curved stretches then get a smaller `P` ([`crate::writer::BlendSchedule`]),
+    /// With [`RewriteOptions::blend`]: the machine's acceleration (mm/s^2). Blocks where
+    /// the speed allows then get a smaller `P` ([`crate::writer::BlendSchedule`]),
     /// so that LinuxCNC's blends leave their lines, along which it accelerates with the
     /// whole of it. Default `None`: one `P` for the whole run.
     pub blend_acc_mm_s2: Option<f64>,

@@ -342,8 +342,15 @@ pub const LINUXCNC_NORMAL_ACC_SHARE: f64 = 0.866_025_403_784_438_6;
 /// remainder is consumed by the blends (tp.c `ARC_BLEND_GAP_CYCLES`).
 pub const LINUXCNC_BLEND_GAP_CYCLES: f64 = 4.0;
 
-/// Smallest share of `P` a block gets under a [`BlendSchedule`].
+/// Smallest share of `P` a block gets under a [`BlendSchedule`]. Measured: 1/64 made
+/// butterfly_1000 nurbs slower on LinuxCNC 2.9 than 1/16 (9.424 against 9.377 s).
 pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
+
+/// Steps per halving of `P` a [`BlendSchedule`] rounds its shares up to (4: shares are
+/// powers of `2^(1/4)`), trading `G64` lines for time. Measured on butterfly_1000 nurbs
+/// (LinuxCNC 2.9): 1 step 9.396 s, 2 steps 9.382 s, 4 steps 9.377 s with 216 `G64`
+/// lines, unrounded 9.368 s with 376.
+pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 
 /// Per-block `G64 P` for LinuxCNC's blending of a flattened curve.
 ///
@@ -351,18 +358,29 @@ pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 /// `c`, a blend within `P` has radius about `R P / c`, and takes `P / c` of each line.
 /// With `P = c` the blend follows the curve but consumes every line, and LinuxCNC
 /// accelerates along what its blends consume with half the acceleration (tc.c
-/// `tcGetTangentialMaxAccel`). Where the feed `v` needs no radius as large as `R`
-/// (`v^2 / (a_n R) < 1`, `v` the machine's fastest feed, or else the programmed one,
-/// `a_n` = [`LINUXCNC_NORMAL_ACC_SHARE`] of the acceleration) a
-/// smaller `P` still lets LinuxCNC hold the feed, and leaves it the lines (where they
-/// are long enough: a block whose blends would leave less than
-/// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line keeps all of `P`). Each vertex
-/// gets `P` times that ratio, clamped to [`BLEND_SCHEDULE_MIN_SHARE`]` ..= 1` and rounded
-/// up to a power of 2 (few `G64` lines); a block gets the larger of its two vertices'
-/// (a blend uses the smaller `P` of its two blocks), and the run's own `P` returns after
-/// the chain. `P` is never larger than the run's, so the tolerance budget is unchanged.
-/// Measured (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, tol 0.01): crown nurbs 7.580 -> 7.517 s,
-/// butterfly_1000 nurbs 9.520 -> 9.456 s.
+/// `tcGetTangentialMaxAccel`). Where the speed `v` at a vertex needs no radius as large
+/// as `R` (`v^2 / (a_n R) < 1`, `a_n` = [`LINUXCNC_NORMAL_ACC_SHARE`] of the
+/// acceleration), a smaller `P` still lets LinuxCNC hold that speed, and leaves it the
+/// lines to accelerate on at the full rate.
+///
+/// `v` is a look-ahead estimate along the written lines: at most the machine's fastest
+/// feed (or else the programmed one), at most what a blend with all of `P` allows
+/// (`sqrt(a_n R)`), and at most what the acceleration along the blocks reaches from the
+/// neighbouring vertices (a forward and a backward pass). So the vertices where LinuxCNC
+/// brakes for, or leaves, a tight turn get a small `P` as well, not only the gently curved
+/// ones at full feed. A block whose blends would leave less than
+/// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line at that speed is consumed whatever
+/// its `P` (blendmath.c `blendCheckConsume`): its vertices keep all of `P`, for the
+/// radius. Each vertex gets `P` times `v^2 / (a_n R)`, clamped to
+/// [`BLEND_SCHEDULE_MIN_SHARE`]` ..= 1` and rounded up to a power of `2^(1/4)`
+/// ([`BLEND_SCHEDULE_STEPS_PER_HALVING`]); a block gets the larger of its two vertices'
+/// (a blend uses the smaller `P` of its two blocks), and the run's ends, and the run's
+/// own `P` after the chain, get all of it. `P` is never larger than the run's, so the
+/// tolerance budget is unchanged.
+///
+/// Measured (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, tol 0.01), butterfly_1000 nurbs: one `P`
+/// 9.520 s; shares for the feed alone 9.466 s; for the look-ahead speed 9.377 s (the
+/// input's own lines under `G64 P0.01`: 9.394 s).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlendSchedule {
     /// The run's `P` (mm), the largest written.
@@ -384,33 +402,40 @@ impl BlendSchedule {
         let Some(v) = fastest.or(feed_mm_s).filter(|v| *v > 0.0) else {
             return Vec::new();
         };
-        let r_need = v * v / (LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2);
+        let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
         let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
-        // Share needed at the vertex ending block k (k + 1 < n); the run's ends get all.
-        let vertex = |k: usize| -> f64 {
+        let n = pts.len();
+        // Radius at the vertex ending block k (k + 1 < n).
+        let radius = |k: usize| -> f64 {
             let (a, b, c) = (at(k), at(k + 1), at(k + 2));
             let (u, w) = (b - a, c - b);
-            let theta = u.angle_to(w);
-            let r = 0.5 * (u.norm() + w.norm()) / theta;
-            if r.is_finite() && r > 0.0 {
-                (r_need / r).clamp(BLEND_SCHEDULE_MIN_SHARE, 1.0)
-            } else {
-                BLEND_SCHEDULE_MIN_SHARE
-            }
+            0.5 * (u.norm() + w.norm()) / u.angle_to(w)
         };
-        let n = pts.len();
+        let r: Vec<f64> = (0..n.saturating_sub(1)).map(radius).collect();
+        let speed = self.speeds(start, pts, &r, v);
         // need[k]: the share at the vertex ending block k (the run's ends get all).
         let need: Vec<f64> = (0..n)
-            .map(|k| if k + 1 == n { 1.0 } else { vertex(k) })
+            .map(|k| {
+                if k + 1 == n {
+                    return 1.0;
+                }
+                let share = speed[k] * speed[k] / (a_n * r[k]);
+                if r[k].is_finite() && r[k] > 0.0 {
+                    share.clamp(BLEND_SCHEDULE_MIN_SHARE, 1.0)
+                } else {
+                    BLEND_SCHEDULE_MIN_SHARE
+                }
+            })
             .collect();
         // A block whose blends leave less than LinuxCNC's gap of straight line is consumed
         // whatever its `P`: its vertices keep all of it, for the radius.
-        let gap_mm = v * LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
+        let gap_s = LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
         let mut share = need.clone();
         for k in 0..n {
             let before = if k == 0 { 1.0 } else { need[k - 1] };
             let len = at(k).dist(at(k + 1));
-            if len * (1.0 - 0.5 * (before + need[k])) < gap_mm {
+            let v_blend = speed.get(k).copied().unwrap_or(v);
+            if len * (1.0 - 0.5 * (before + need[k])) < gap_s * v_blend {
                 share[k] = 1.0;
                 if k > 0 {
                     share[k - 1] = 1.0;
@@ -421,10 +446,45 @@ impl BlendSchedule {
             .map(|k| {
                 let before = if k == 0 { 1.0 } else { share[k - 1] };
                 let s = before.max(share[k]);
-                // Rounded up to a power of 2.
-                2f64.powi(s.log2().ceil() as i32).min(1.0)
+                let steps = (s.log2() * BLEND_SCHEDULE_STEPS_PER_HALVING).ceil();
+                2f64.powf(steps / BLEND_SCHEDULE_STEPS_PER_HALVING).min(1.0)
             })
             .collect()
+    }
+
+    /// Speed at each vertex (mm/s) of the blocks from `start` through `pts`, `r` their
+    /// radii: at most `v`, what a blend with all of `P` allows at radius `r`, and what the
+    /// acceleration along the blocks reaches from the neighbouring vertices (LinuxCNC's
+    /// tangential limit of a line: the smallest axis limit over that axis's share of the
+    /// direction). The run's ends are taken as unconstrained: the estimate errs high, and
+    /// a speed estimated high only keeps more of `P`.
+    fn speeds(&self, start: Vec3, pts: &[Vec3], r: &[f64], v: f64) -> Vec<f64> {
+        let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
+        let mut s: Vec<f64> = r
+            .iter()
+            .map(|&r| {
+                if r.is_finite() && r > 0.0 {
+                    v.min((a_n * r).sqrt())
+                } else {
+                    v
+                }
+            })
+            .collect();
+        let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
+        // Block k + 1 joins vertex k to vertex k + 1.
+        let reach = |k: usize, from: f64| -> f64 {
+            let d = at(k + 2) - at(k + 1);
+            let len = d.norm();
+            let acc = self.acc_mm_s2 * len / d.max_abs().max(f64::MIN_POSITIVE);
+            (from * from + 2.0 * acc * len).sqrt()
+        };
+        for k in 1..s.len() {
+            s[k] = s[k].min(reach(k - 1, s[k - 1]));
+        }
+        for k in (0..s.len().saturating_sub(1)).rev() {
+            s[k] = s[k].min(reach(k, s[k + 1]));
+        }
+        s
     }
 }
 
@@ -1345,15 +1405,17 @@ mod tests {
             feed_max_mm_s: 50.0,
         };
         // 50 mm/s needs a radius of 2500 / 433 = 5.77 mm: on a 40 mm circle that is
-        // 0.144 of it, rounded up to 1/4. The run's ends keep all of P, and so do the
-        // blocks next to them: a 0.4 mm chord blended for all of P at one end and 0.144
-        // at the other leaves 0.17 mm of line, under the 0.2 mm LinuxCNC consumes.
+        // 0.144 of it, rounded up to 2^(-11/4) = 0.149. The run's ends keep all of P, and
+        // so do the blocks next to them: a 0.4 mm chord blended for all of P at one end
+        // and 0.144 at the other leaves 0.17 mm of line, under the 0.2 mm LinuxCNC
+        // consumes at 50 mm/s.
         let (start, pts) = circle_chords(40.0, 0.01, 20);
         let shares = s.shares(start, &pts, Some(100.0));
         assert_eq!(shares.len(), 20);
         assert_eq!(&shares[..2], &[1.0, 1.0]);
         assert_eq!(&shares[18..], &[1.0, 1.0]);
-        assert!(shares[2..18].iter().all(|&x| x == 0.25), "{shares:?}");
+        let at_feed = 2f64.powf(-11.0 / 4.0);
+        assert!(shares[2..18].iter().all(|&x| x == at_feed), "{shares:?}");
         // 0.08 mm chords are consumed whatever P: all of it, for the radius.
         let (start, pts) = circle_chords(40.0, 0.002, 20);
         assert!(s.shares(start, &pts, Some(50.0)).iter().all(|&x| x == 1.0));
@@ -1381,6 +1443,59 @@ mod tests {
             "{slow:?}"
         );
         assert!(programmed.shares(start, &pts, None).is_empty());
+    }
+
+    /// 0.4 mm chords turning 0.01 rad each (a 40 mm radius), `n` before and `n` after a
+    /// 90 degree corner.
+    fn chords_with_a_corner(n: usize) -> (Vec3, Vec<Vec3>) {
+        let mut heading = 0.0_f64;
+        let mut p = Vec3::new(0.0, 0.0, 0.0);
+        let mut pts = Vec::new();
+        for k in 0..2 * n {
+            if k == n {
+                heading += std::f64::consts::FRAC_PI_2;
+            }
+            p += Vec3::new(heading.cos(), heading.sin(), 0.0) * 0.4;
+            pts.push(p);
+            heading += 0.01;
+        }
+        (Vec3::new(0.0, 0.0, 0.0), pts)
+    }
+
+    #[test]
+    fn blend_schedule_leaves_lines_where_linuxcnc_brakes_for_a_corner() {
+        let s = BlendSchedule {
+            p_mm: 0.001,
+            q_mm: 0.0,
+            acc_mm_s2: 500.0,
+            feed_max_mm_s: 50.0,
+        };
+        let (start, pts) = chords_with_a_corner(40);
+        let shares = s.shares(start, &pts, Some(50.0));
+        assert_eq!(shares.len(), 80);
+        // The corner (a 0.25 mm radius: 10.4 mm/s) keeps all of P on both its blocks.
+        assert_eq!(&shares[39..41], &[1.0, 1.0], "{shares:?}");
+        // Braking for it, and leaving it, the speed is below what the 40 mm radius needs
+        // at 50 mm/s (sqrt(10.4^2 + 2 a s): 22.7 mm/s one chord away, 50 mm/s from
+        // 2.4 mm on). The blocks there get less P than the feed alone would give them
+        // (0.149), the least next to the corner, and keep their lines: a 0.4 mm chord
+        // blended at 1/16 and 1 leaves 0.19 mm, more than 4 ms at 22.7 mm/s.
+        let at_feed = 2f64.powf(-11.0 / 4.0);
+        assert_eq!(shares[38], BLEND_SCHEDULE_MIN_SHARE, "{shares:?}");
+        assert_eq!(shares[41], BLEND_SCHEDULE_MIN_SHARE, "{shares:?}");
+        assert!(shares[36..38].iter().all(|&x| x < at_feed), "{shares:?}");
+        assert!(shares[42..44].iter().all(|&x| x < at_feed), "{shares:?}");
+        assert!(shares[2..30].iter().all(|&x| x == at_feed), "{shares:?}");
+        assert!(shares[50..78].iter().all(|&x| x == at_feed), "{shares:?}");
+        // The shares fall towards the corner and rise after it.
+        assert!(
+            shares[30..39].windows(2).all(|w| w[0] >= w[1]),
+            "{shares:?}"
+        );
+        assert!(
+            shares[41..50].windows(2).all(|w| w[0] <= w[1]),
+            "{shares:?}"
+        );
     }
 
     #[test]
