@@ -342,6 +342,11 @@ pub const LINUXCNC_NORMAL_ACC_SHARE: f64 = 0.866_025_403_784_438_6;
 /// remainder is consumed by the blends (tp.c `ARC_BLEND_GAP_CYCLES`).
 pub const LINUXCNC_BLEND_GAP_CYCLES: f64 = 4.0;
 
+/// LinuxCNC's default `[TRAJ] ARC_BLEND_KINK_RATIO`: the share of the axes' acceleration
+/// a kink between two moves may take before they are blended rather than joined as
+/// tangent (tp.c `tpGetTangentKinkRatio`).
+pub const LINUXCNC_TANGENT_KINK_RATIO: f64 = 0.1;
+
 /// Smallest share of `P` a block gets under a [`BlendSchedule`]. Measured: 1/64 made
 /// butterfly_1000 nurbs slower on LinuxCNC 2.9 than 1/16 (9.424 against 9.377 s).
 pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
@@ -354,24 +359,25 @@ pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 
 /// Per-block `G64 P` for LinuxCNC's blending of a flattened curve.
 ///
-/// At a vertex between chords of a curve of radius `R`, flattened within chord error
-/// `c`, a blend within `P` has radius about `R P / c`, and takes `P / c` of each line.
-/// With `P = c` the blend follows the curve but consumes every line, and LinuxCNC
-/// accelerates along what its blends consume with half the acceleration (tc.c
-/// `tcGetTangentialMaxAccel`). Where the speed `v` at a vertex needs no radius as large
-/// as `R` (`v^2 / (a_n R) < 1`, `a_n` = [`LINUXCNC_NORMAL_ACC_SHARE`] of the
-/// acceleration), a smaller `P` still lets LinuxCNC hold that speed, and leaves it the
+/// LinuxCNC blends two lines turning by `phi` with an arc tangent to both that takes
+/// `d = min(P / tan(phi / 4), half the shorter line)` of each and has radius
+/// `d / tan(phi / 2)` ([`VertexBlend`], blendmath.c `blendComputeParameters`). At the
+/// chords of a curve flattened within `c`, `P = c` gives about the curve's radius and
+/// consumes every line, and LinuxCNC accelerates along what its blends consume with half
+/// the acceleration (tc.c `tcGetTangentialMaxAccel`). A vertex whose speed `v` needs a
+/// smaller radius (`v^2 / a_n`, `a_n` = [`LINUXCNC_NORMAL_ACC_SHARE`] of the
+/// acceleration) gets the least `P` that gives it, and leaves LinuxCNC the rest of the
 /// lines to accelerate on at the full rate.
 ///
 /// `v` is a look-ahead estimate along the written lines: at most the machine's fastest
-/// feed (or else the programmed one), at most what a blend with all of `P` allows
-/// (`sqrt(a_n R)`), and at most what the acceleration along the blocks reaches from the
-/// neighbouring vertices (a forward and a backward pass). So the vertices where LinuxCNC
-/// brakes for, or leaves, a tight turn get a small `P` as well, not only the gently curved
-/// ones at full feed. A block whose blends would leave less than
-/// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line at that speed is consumed whatever
-/// its `P` (blendmath.c `blendCheckConsume`): its vertices keep all of `P`, for the
-/// radius. Each vertex gets `P` times `v^2 / (a_n R)`, clamped to
+/// feed (or else the programmed one), at most what the blend with all of `P` allows, and
+/// at most what the acceleration along the blocks reaches from the neighbouring vertices
+/// (a forward and a backward pass). So the vertices where LinuxCNC brakes for, or leaves,
+/// a tight turn get a small `P` as well, not only the gently curved ones at full feed. A
+/// block whose blends would leave less than [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of
+/// line at that speed is consumed whatever its `P` (blendmath.c `blendCheckConsume`): its
+/// vertices keep all of `P`, for the radius. Vertices LinuxCNC joins as tangent (below
+/// [`LINUXCNC_TANGENT_KINK_RATIO`]) take nothing. Shares are clamped to
 /// [`BLEND_SCHEDULE_MIN_SHARE`]` ..= 1` and rounded up to a power of `2^(1/4)`
 /// ([`BLEND_SCHEDULE_STEPS_PER_HALVING`]); a block gets the larger of its two vertices'
 /// (a blend uses the smaller `P` of its two blocks), and the run's ends, and the run's
@@ -379,8 +385,9 @@ pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 /// tolerance budget is unchanged.
 ///
 /// Measured (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, tol 0.01), butterfly_1000 nurbs: one `P`
-/// 9.520 s; shares for the feed alone 9.466 s; for the look-ahead speed 9.377 s (the
-/// input's own lines under `G64 P0.01`: 9.394 s).
+/// 9.520 s; shares for the feed alone, with the radius estimated as chord over turn,
+/// 9.466 s; for the look-ahead speed 9.377 s; with LinuxCNC's blend geometry 9.325 s
+/// (the input's own lines under `G64 P0.01`: 9.394 s).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlendSchedule {
     /// The run's `P` (mm), the largest written.
@@ -405,37 +412,43 @@ impl BlendSchedule {
         let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
         let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
         let n = pts.len();
-        // Radius at the vertex ending block k (k + 1 < n).
-        let radius = |k: usize| -> f64 {
-            let (a, b, c) = (at(k), at(k + 1), at(k + 2));
-            let (u, w) = (b - a, c - b);
-            0.5 * (u.norm() + w.norm()) / u.angle_to(w)
-        };
-        let r: Vec<f64> = (0..n.saturating_sub(1)).map(radius).collect();
-        let speed = self.speeds(start, pts, &r, v);
+        // The blend at the vertex ending block k (k + 1 < n).
+        let tangent_rad = self.tangent_turn_rad(v);
+        let blends: Vec<VertexBlend> = (0..n.saturating_sub(1))
+            .map(|k| VertexBlend::new(at(k + 1) - at(k), at(k + 2) - at(k + 1), tangent_rad))
+            .collect();
+        let speed = self.speeds(start, pts, &blends, v);
         // need[k]: the share at the vertex ending block k (the run's ends get all).
         let need: Vec<f64> = (0..n)
-            .map(|k| {
-                if k + 1 == n {
-                    return 1.0;
+            .map(|k| match blends.get(k) {
+                Some(b) => {
+                    let p = b.p_for_radius_mm(speed[k] * speed[k] / a_n);
+                    (p / self.p_mm).clamp(BLEND_SCHEDULE_MIN_SHARE, 1.0)
                 }
-                let share = speed[k] * speed[k] / (a_n * r[k]);
-                if r[k].is_finite() && r[k] > 0.0 {
-                    share.clamp(BLEND_SCHEDULE_MIN_SHARE, 1.0)
-                } else {
-                    BLEND_SCHEDULE_MIN_SHARE
-                }
+                None => 1.0,
             })
+            .map(|x| if x.is_nan() { 1.0 } else { x })
             .collect();
         // A block whose blends leave less than LinuxCNC's gap of straight line is consumed
-        // whatever its `P`: its vertices keep all of it, for the radius.
+        // whatever its `P` (blendmath.c `blendCheckConsume`, at the blend's speed): its
+        // vertices keep all of it, for the radius.
         let gap_s = LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
+        // What the blend at the vertex ending block k takes of each line; at the run's
+        // ends, whose other side is not known here, as much as LinuxCNC ever takes.
+        let taken = |k: usize, x: &[f64]| match blends.get(k) {
+            Some(b) => b.reach_mm(x[k] * self.p_mm),
+            None => 0.5 * at(k).dist(at(k + 1)),
+        };
         let mut share = need.clone();
         for k in 0..n {
-            let before = if k == 0 { 1.0 } else { need[k - 1] };
             let len = at(k).dist(at(k + 1));
-            let v_blend = speed.get(k).copied().unwrap_or(v);
-            if len * (1.0 - 0.5 * (before + need[k])) < gap_s * v_blend {
+            let before = if k == 0 {
+                0.5 * len
+            } else {
+                taken(k - 1, &need)
+            };
+            let left = len - before - taken(k, &need);
+            if left < gap_s * speed.get(k).copied().unwrap_or(v) {
                 share[k] = 1.0;
                 if k > 0 {
                     share[k - 1] = 1.0;
@@ -452,21 +465,30 @@ impl BlendSchedule {
             .collect()
     }
 
-    /// Speed at each vertex (mm/s) of the blocks from `start` through `pts`, `r` their
-    /// radii: at most `v`, what a blend with all of `P` allows at radius `r`, and what the
+    /// The turn (rad) below which LinuxCNC joins two lines at feed `v` as tangent, without a
+    /// blend (tp.c `tpSetupTangent`: the kink's acceleration `(v / T + a) turn` within
+    /// [`LINUXCNC_TANGENT_KINK_RATIO`] of the axes' `a`).
+    fn tangent_turn_rad(&self, v: f64) -> f64 {
+        let a = self.acc_mm_s2;
+        LINUXCNC_TANGENT_KINK_RATIO * a / (v / crate::dialect::LINUXCNC_SERVO_PERIOD_S + a)
+    }
+
+    /// Speed at each vertex (mm/s) of the blocks from `start` through `pts`, `blends` at
+    /// their vertices: at most `v`, what a blend with all of `P` allows, and what the
     /// acceleration along the blocks reaches from the neighbouring vertices (LinuxCNC's
     /// tangential limit of a line: the smallest axis limit over that axis's share of the
     /// direction). The run's ends are taken as unconstrained: the estimate errs high, and
     /// a speed estimated high only keeps more of `P`.
-    fn speeds(&self, start: Vec3, pts: &[Vec3], r: &[f64], v: f64) -> Vec<f64> {
+    fn speeds(&self, start: Vec3, pts: &[Vec3], blends: &[VertexBlend], v: f64) -> Vec<f64> {
         let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
-        let mut s: Vec<f64> = r
+        let mut s: Vec<f64> = blends
             .iter()
-            .map(|&r| {
-                if r.is_finite() && r > 0.0 {
-                    v.min((a_n * r).sqrt())
-                } else {
+            .map(|b| {
+                let r = b.radius_mm(self.p_mm);
+                if r.is_nan() {
                     v
+                } else {
+                    v.min((a_n * r).sqrt())
                 }
             })
             .collect();
@@ -485,6 +507,55 @@ impl BlendSchedule {
             s[k] = s[k].min(reach(k, s[k + 1]));
         }
         s
+    }
+}
+
+/// LinuxCNC's blend arc between two lines (blendmath.c `blendComputeParameters`): tangent
+/// to both, it takes at most half of each line (`BLEND_DIST_FRACTION`) and, within `P`,
+/// at most `P / tan(phi / 4)` of each, `phi` the turn; its radius is what it takes over
+/// `tan(phi / 2)`.
+#[derive(Clone, Copy, Debug)]
+struct VertexBlend {
+    /// `tan(phi / 2)`.
+    tan_half: f64,
+    /// `tan(phi / 4)`.
+    tan_quarter: f64,
+    /// Half the shorter line (mm).
+    half_line_mm: f64,
+}
+
+impl VertexBlend {
+    /// The blend between lines `u` and `w`; none (it takes nothing, and its radius is
+    /// NaN) where they turn less than `tangent_rad`.
+    fn new(u: Vec3, w: Vec3, tangent_rad: f64) -> VertexBlend {
+        let phi = u.angle_to(w);
+        if phi < tangent_rad {
+            return VertexBlend {
+                tan_half: 0.0,
+                tan_quarter: 0.0,
+                half_line_mm: 0.0,
+            };
+        }
+        VertexBlend {
+            tan_half: (0.5 * phi).tan(),
+            tan_quarter: (0.25 * phi).tan(),
+            half_line_mm: 0.5 * u.norm().min(w.norm()),
+        }
+    }
+
+    /// Length of each line a blend within `p_mm` takes.
+    fn reach_mm(&self, p_mm: f64) -> f64 {
+        self.half_line_mm.min(p_mm / self.tan_quarter)
+    }
+
+    /// Radius of the blend within `p_mm`.
+    fn radius_mm(&self, p_mm: f64) -> f64 {
+        self.reach_mm(p_mm) / self.tan_half
+    }
+
+    /// The least `P` whose blend has radius `r_mm`, or all the lines allow.
+    fn p_for_radius_mm(&self, r_mm: f64) -> f64 {
+        (r_mm * self.tan_half).min(self.half_line_mm) * self.tan_quarter
     }
 }
 
@@ -1404,17 +1475,18 @@ mod tests {
             acc_mm_s2: 500.0,
             feed_max_mm_s: 50.0,
         };
-        // 50 mm/s needs a radius of 2500 / 433 = 5.77 mm: on a 40 mm circle that is
-        // 0.144 of it, rounded up to 2^(-11/4) = 0.149. The run's ends keep all of P, and
-        // so do the blocks next to them: a 0.4 mm chord blended for all of P at one end
-        // and 0.144 at the other leaves 0.17 mm of line, under the 0.2 mm LinuxCNC
-        // consumes at 50 mm/s.
+        // 50 mm/s needs a radius of 2500 / 433 = 5.77 mm. At a turn of 0.01 rad that
+        // blend takes 5.77 tan(0.005) = 0.029 mm of each 0.4 mm chord, which a P of
+        // 0.029 tan(0.0025) = 7.2e-5 mm allows: 0.072 of P, rounded up to 2^(-15/4) =
+        // 0.0743. The run's ends keep all of P, and so do the blocks next to them: a
+        // 0.4 mm chord of which LinuxCNC may take half at the run's end and 0.029 mm at
+        // the other leaves 0.17 mm of line, under the 0.2 mm it consumes at 50 mm/s.
         let (start, pts) = circle_chords(40.0, 0.01, 20);
         let shares = s.shares(start, &pts, Some(100.0));
         assert_eq!(shares.len(), 20);
         assert_eq!(&shares[..2], &[1.0, 1.0]);
         assert_eq!(&shares[18..], &[1.0, 1.0]);
-        let at_feed = 2f64.powf(-11.0 / 4.0);
+        let at_feed = 2f64.powf(-15.0 / 4.0);
         assert!(shares[2..18].iter().all(|&x| x == at_feed), "{shares:?}");
         // 0.08 mm chords are consumed whatever P: all of it, for the radius.
         let (start, pts) = circle_chords(40.0, 0.002, 20);
@@ -1473,14 +1545,16 @@ mod tests {
         let (start, pts) = chords_with_a_corner(40);
         let shares = s.shares(start, &pts, Some(50.0));
         assert_eq!(shares.len(), 80);
-        // The corner (a 0.25 mm radius: 10.4 mm/s) keeps all of P on both its blocks.
+        // The corner (a 0.25 mm radius at most: 10.4 mm/s) keeps all of P on both its
+        // blocks.
         assert_eq!(&shares[39..41], &[1.0, 1.0], "{shares:?}");
         // Braking for it, and leaving it, the speed is below what the 40 mm radius needs
         // at 50 mm/s (sqrt(10.4^2 + 2 a s): 22.7 mm/s one chord away, 50 mm/s from
         // 2.4 mm on). The blocks there get less P than the feed alone would give them
-        // (0.149), the least next to the corner, and keep their lines: a 0.4 mm chord
-        // blended at 1/16 and 1 leaves 0.19 mm, more than 4 ms at 22.7 mm/s.
-        let at_feed = 2f64.powf(-11.0 / 4.0);
+        // (0.0743), the least next to the corner, and keep their lines: a 0.4 mm chord
+        // of which the corner's blend takes at most half leaves more than 4 ms at
+        // 22.7 mm/s.
+        let at_feed = 2f64.powf(-15.0 / 4.0);
         assert_eq!(shares[38], BLEND_SCHEDULE_MIN_SHARE, "{shares:?}");
         assert_eq!(shares[41], BLEND_SCHEDULE_MIN_SHARE, "{shares:?}");
         assert!(shares[36..38].iter().all(|&x| x < at_feed), "{shares:?}");
@@ -1496,6 +1570,35 @@ mod tests {
             shares[41..50].windows(2).all(|w| w[0] <= w[1]),
             "{shares:?}"
         );
+    }
+
+    #[test]
+    fn vertex_blend_is_linuxcncs_blend_geometry() {
+        // blendmath.c: theta is half the angle between the lines, pi/2 - phi/2; the blend
+        // takes d_tol = cos(theta) P / (1 - sin(theta)) of each line, at most half of the
+        // shorter one, and has radius tan(theta) d.
+        let p = 0.001;
+        for phi in [0.002_f64, 0.01, 0.3, 1.0, 2.0, 3.0] {
+            let u = Vec3::new(0.4, 0.0, 0.0);
+            let w = Vec3::new(phi.cos(), phi.sin(), 0.0) * 0.3;
+            let b = VertexBlend::new(u, w, 1e-3);
+            let theta = 0.5 * (std::f64::consts::PI - phi);
+            let d = (theta.cos() * p / (1.0 - theta.sin())).min(0.15);
+            let rel = |x: f64, y: f64| ((x - y) / y).abs();
+            assert!(rel(b.reach_mm(p), d) < 1e-9, "{phi}");
+            assert!(rel(b.radius_mm(p), theta.tan() * d) < 1e-9, "{phi}");
+            // The least P for a radius gives that radius, or all the lines allow.
+            for r in [0.01, 1.0, 100.0] {
+                let q = b.p_for_radius_mm(r);
+                assert!(
+                    rel(b.radius_mm(q), r.min(b.radius_mm(1e9))) < 1e-9,
+                    "{phi} {r}"
+                );
+            }
+        }
+        // Below the tangent kink, LinuxCNC joins without a blend: nothing taken.
+        let b = VertexBlend::new(Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 5e-4, 0.0), 1e-3);
+        assert_eq!(b.reach_mm(p), 0.0);
     }
 
     #[test]
