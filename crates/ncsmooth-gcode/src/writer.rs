@@ -361,7 +361,7 @@ pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 ///
 /// LinuxCNC blends two lines turning by `phi` with an arc tangent to both that takes
 /// `d = min(P / tan(phi / 4), half the shorter line)` of each and has radius
-/// `d / tan(phi / 2)` ([`VertexBlend`], blendmath.c `blendComputeParameters`). At the
+/// `d / tan(phi / 2)` (`VertexBlend`, blendmath.c `blendComputeParameters`). At the
 /// chords of a curve flattened within `c`, `P = c` gives about the curve's radius and
 /// consumes every line, and LinuxCNC accelerates along what its blends consume with half
 /// the acceleration (tc.c `tcGetTangentialMaxAccel`). A vertex whose speed `v` needs a
