@@ -1572,6 +1572,43 @@ mod tests {
         );
     }
 
+    proptest::proptest! {
+        /// Whatever the lines (repeated points, reversals, tiny and long blocks), every
+        /// block gets a share of `P` in `[BLEND_SCHEDULE_MIN_SHARE, 1]`, never more than
+        /// the run's `P` (the tolerance budget), and the run's end blocks get all of it.
+        #[test]
+        fn blend_schedule_shares_stay_within_the_runs_p(
+            pts in proptest::collection::vec(
+                (-2.0f64..2.0, -2.0f64..2.0, proptest::prelude::any::<bool>()), 1..60),
+            acc in 10.0f64..5000.0,
+            feed in 1.0f64..200.0,
+            fastest in proptest::prelude::any::<bool>(),
+        ) {
+            let s = BlendSchedule {
+                p_mm: 0.001,
+                q_mm: 0.0,
+                acc_mm_s2: acc,
+                feed_max_mm_s: if fastest { feed } else { f64::INFINITY },
+            };
+            // Some points repeat the one before.
+            let mut line = Vec::new();
+            let mut last = Vec3::new(0.0, 0.0, 0.0);
+            for (x, y, repeat) in pts {
+                if !repeat {
+                    last = Vec3::new(x, y, 0.0);
+                }
+                line.push(last);
+            }
+            let shares = s.shares(Vec3::new(0.0, 0.0, 0.0), &line, Some(feed));
+            proptest::prop_assert_eq!(shares.len(), line.len());
+            for &x in &shares {
+                proptest::prop_assert!((BLEND_SCHEDULE_MIN_SHARE..=1.0).contains(&x), "{:?}", shares);
+            }
+            proptest::prop_assert_eq!(shares[0], 1.0);
+            proptest::prop_assert_eq!(shares[shares.len() - 1], 1.0);
+        }
+    }
+
     #[test]
     fn vertex_blend_is_linuxcncs_blend_geometry() {
         // blendmath.c: theta is half the angle between the lines, pi/2 - phi/2; the blend
