@@ -413,12 +413,14 @@ impl BlendSchedule {
         let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
         let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
         let n = pts.len();
-        // The blend at the vertex ending block k (k + 1 < n).
+        // blocks[k]: block k as a vector; blends[k]: the blend at the vertex ending it.
+        let blocks: Vec<Vec3> = (0..n).map(|k| at(k + 1) - at(k)).collect();
         let tangent_rad = self.tangent_turn_rad(v);
-        let blends: Vec<VertexBlend> = (0..n.saturating_sub(1))
-            .map(|k| VertexBlend::new(at(k + 1) - at(k), at(k + 2) - at(k + 1), tangent_rad))
+        let blends: Vec<VertexBlend> = blocks
+            .windows(2)
+            .map(|b| VertexBlend::new(b[0], b[1], tangent_rad))
             .collect();
-        let speed = self.speeds(start, pts, &blends, v);
+        let speed = self.speeds(&blocks, &blends, v);
         // need[k]: the share at the vertex ending block k (the run's ends get all).
         let need: Vec<f64> = (0..n)
             .map(|k| match blends.get(k) {
@@ -438,11 +440,11 @@ impl BlendSchedule {
         // ends, whose other side is not known here, as much as LinuxCNC ever takes.
         let taken = |k: usize, x: &[f64]| match blends.get(k) {
             Some(b) => b.reach_mm(x[k] * self.p_mm),
-            None => 0.5 * at(k).dist(at(k + 1)),
+            None => 0.5 * blocks[k].norm(),
         };
         let mut share = need.clone();
         for k in 0..n {
-            let len = at(k).dist(at(k + 1));
+            let len = blocks[k].norm();
             let before = if k == 0 {
                 0.5 * len
             } else {
@@ -474,13 +476,13 @@ impl BlendSchedule {
         LINUXCNC_TANGENT_KINK_RATIO * a / (v / crate::dialect::LINUXCNC_SERVO_PERIOD_S + a)
     }
 
-    /// Speed at each vertex (mm/s) of the blocks from `start` through `pts`, `blends` at
-    /// their vertices: at most `v`, what a blend with all of `P` allows, and what the
+    /// Speed at each vertex (mm/s) between `blocks` (as vectors), `blends` at those
+    /// vertices: at most `v`, what a blend with all of `P` allows, and what the
     /// acceleration along the blocks reaches from the neighbouring vertices (LinuxCNC's
     /// tangential limit of a line: the smallest axis limit over that axis's share of the
     /// direction). The run's ends are taken as unconstrained: the estimate errs high, and
     /// a speed estimated high only keeps more of `P`.
-    fn speeds(&self, start: Vec3, pts: &[Vec3], blends: &[VertexBlend], v: f64) -> Vec<f64> {
+    fn speeds(&self, blocks: &[Vec3], blends: &[VertexBlend], v: f64) -> Vec<f64> {
         let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
         let mut s: Vec<f64> = blends
             .iter()
@@ -493,10 +495,9 @@ impl BlendSchedule {
                 }
             })
             .collect();
-        let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
         // Block k + 1 joins vertex k to vertex k + 1.
         let reach = |k: usize, from: f64| -> f64 {
-            let d = at(k + 2) - at(k + 1);
+            let d = blocks[k + 1];
             let len = d.norm();
             let acc = self.acc_mm_s2 * len / d.max_abs().max(f64::MIN_POSITIVE);
             (from * from + 2.0 * acc * len).sqrt()
