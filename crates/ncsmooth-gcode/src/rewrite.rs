@@ -52,6 +52,14 @@ pub struct RewriteOptions {
     /// LinuxCNC blending to allow on the replaced motion (`G64 P Q` before each replaced
     /// run); `None` writes no path control mode. Default `None`.
     pub blend: Option<Blend>,
+    /// With [`RewriteOptions::blend`]: LinuxCNC blending for the program's own motion that
+    /// is copied verbatim (rapids, plunges, lines no run replaced) where the program's own
+    /// mode is looser. Those lines are the programmed path itself, so their blending may
+    /// take the whole tolerance, not what is left of it after the smoothing; LinuxCNC
+    /// blends a junction with the smaller `P` of its two moves (tc.c
+    /// `tcFindBlendTolerance`), so a run's ends keep the run's bound. Default `None`: the
+    /// runs' `blend`.
+    pub verbatim_blend: Option<Blend>,
     /// Planes in which arcs may be written as `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2
     /// G19); arcs in other planes are flattened. Default all.
     pub arc_planes: u8,
@@ -101,6 +109,7 @@ impl Default for RewriteOptions {
             header: None,
             emit: Emit::Native,
             blend: None,
+            verbatim_blend: None,
             arc_planes: 0b111,
             rewrite_unchanged: false,
             block_floor: None,
@@ -155,10 +164,12 @@ pub enum Emit {
 /// each replaced run, so the controller's blending (`P`) and naive-CAM merging (`Q`) add
 /// at most `p + q` to the deviation of the written path.
 ///
-/// After the run the program's own mode is restored when it is at least as tight (`G61`,
-/// `G61.1`, or a `G64` whose `P + Q` is within `p + q`); a looser mode (LinuxCNC's
-/// start-up `G64` without `P`, or a larger `P`) is not restored, so the blending of the
-/// moves that follow stays bounded until the program sets a mode of its own.
+/// After the run the program's own mode is restored when it is at least as tight as the
+/// verbatim bound ([`RewriteOptions::verbatim_blend`], by default this one): `G61`,
+/// `G61.1`, or a `G64` whose `P + Q` is within it. A looser mode (LinuxCNC's start-up
+/// `G64` without `P`, or a larger `P`) is not restored: the verbatim bound is written
+/// instead, so the blending of the moves that follow stays bounded until the program
+/// sets a mode of its own.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Blend {
     /// Blend tolerance `P` (mm), positive.
@@ -212,6 +223,20 @@ impl RewriteOptions {
     /// The same options with LinuxCNC blending bounds.
     pub fn with_blend(self, blend: Option<Blend>) -> RewriteOptions {
         RewriteOptions { blend, ..self }
+    }
+
+    /// The same options with LinuxCNC blending for the verbatim motion
+    /// ([`RewriteOptions::verbatim_blend`]).
+    pub fn with_verbatim_blend(self, verbatim_blend: Option<Blend>) -> RewriteOptions {
+        RewriteOptions {
+            verbatim_blend,
+            ..self
+        }
+    }
+
+    /// The blending in force on verbatim motion: `None` when nothing blends.
+    fn verbatim_blend_in_force(&self) -> Option<Blend> {
+        self.blend.map(|b| self.verbatim_blend.unwrap_or(b))
     }
 
     /// The same options with the machine's acceleration and fastest feed for the
@@ -632,11 +657,12 @@ pub fn rewrite(
     let mut region: Option<Region> = None;
     // Motion code the next modal-motion line must be given, after a region.
     let mut pending_motion: Option<u16> = None;
-    let first_motion = first_loose_motion(lines, &changed, opts.blend);
+    let verbatim_blend = opts.verbatim_blend_in_force();
+    let first_motion = first_loose_motion(lines, &changed, verbatim_blend);
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
-        if let (Some(b), Some(true)) = (opts.blend, first_motion.map(|f| f == i)) {
+        if let (Some(b), Some(true)) = (verbatim_blend, first_motion.map(|f| f == i)) {
             let d = decimals_for(info.before.units, opts.decimals);
             s.extend_from_slice(blend_text(b, info.before.units, d).as_bytes());
             s.extend_from_slice(eol.as_bytes());
@@ -654,7 +680,7 @@ pub fn rewrite(
         } else {
             if let Some(mut r) = region.take() {
                 r.flush(&mut s, &orig)?;
-                pending_motion = r.close(&mut s, eol);
+                pending_motion = r.close(&mut s, eol, opts.decimals);
             }
             match pending_motion {
                 Some(code) if info.has(flags::MODAL_MOTION) => {
@@ -680,7 +706,7 @@ pub fn rewrite(
     }
     if let Some(mut r) = region.take() {
         r.flush(&mut s, &orig)?;
-        r.close(&mut s, eol);
+        r.close(&mut s, eol, opts.decimals);
     }
     if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
         s.extend_from_slice(eol.as_bytes());
@@ -690,9 +716,10 @@ pub fn rewrite(
 }
 
 /// The first executed motion line, when blending is bounded, the controller's mode there
-/// is looser than the bound (LinuxCNC's start-up `G64` without `P` blends without limit)
-/// and the line is not replaced (a replaced run writes its own `G64`): the verbatim
-/// motion before the first smoothed run is bounded too. `None` when nothing changed.
+/// is looser than the verbatim bound `blend` (LinuxCNC's start-up `G64` without `P` blends
+/// without limit) and the line is not replaced (a replaced run writes its own `G64`): the
+/// verbatim motion before the first smoothed run is bounded too. `None` when nothing
+/// changed.
 fn first_loose_motion(lines: &[LineInfo], changed: &[bool], blend: Option<Blend>) -> Option<usize> {
     let b = blend?;
     // A program given back unchanged is copied as it is.
@@ -717,6 +744,8 @@ struct Region<'a> {
     eol: &'static str,
     /// The `G64` written at the start of the run, if any.
     blend: Option<Blend>,
+    /// The blending for the verbatim motion after the run, if any.
+    verbatim_blend: Option<Blend>,
     /// The block floor, if any, and the programmed moves of the run so far (indices into
     /// the program's moves).
     floor: Option<BlockFloor>,
@@ -913,14 +942,16 @@ impl<'a> Region<'a> {
             end_state: st,
             eol,
             blend: opts.blend,
+            verbatim_blend: opts.verbatim_blend_in_force(),
             floor: opts.block_floor.filter(|_| frame_chains_lines(opts.emit)),
             program: None,
         }
     }
 
-    /// Writes what the next verbatim line expects; returns the motion code a following
-    /// modal-motion line must be given, if the last one written differs.
-    fn close(self, s: &mut Vec<u8>, eol: &str) -> Option<u16> {
+    /// Writes what the next verbatim line expects (`decimals`: the options' decimals);
+    /// returns the motion code a following modal-motion line must be given, if the last
+    /// one written differs.
+    fn close(self, s: &mut Vec<u8>, eol: &str, decimals: usize) -> Option<u16> {
         debug_assert!(self.pending.is_empty());
         let st = self.end_state;
         let mut restore = String::new();
@@ -950,20 +981,27 @@ impl<'a> Region<'a> {
                 restore.push_str(&want);
             }
         }
-        if let Some(b) = self.blend {
-            // The program's own mode comes back only when it is at least as tight.
-            if st.path.blend_bound_mm() <= b.p_mm + b.q_mm {
+        // The verbatim bound, on a line of its own like the runs' `G64`.
+        let mut bound = None;
+        if let (Some(b), Some(vb)) = (self.blend, self.verbatim_blend) {
+            // The program's own mode comes back only when it is at least as tight as the
+            // verbatim bound; otherwise the verbatim bound is set, unless the run's is it.
+            if st.path.blend_bound_mm() <= vb.p_mm + vb.q_mm {
                 if let Some(t) = path_mode_text(st.path, st.units) {
                     if !restore.is_empty() {
                         restore.push(' ');
                     }
                     restore.push_str(&t);
                 }
+            } else if vb != b {
+                bound = Some(blend_text(vb, st.units, decimals_for(st.units, decimals)));
             }
         }
-        if !restore.is_empty() {
-            s.extend_from_slice(restore.as_bytes());
-            s.extend_from_slice(eol.as_bytes());
+        for line in [Some(restore), bound].into_iter().flatten() {
+            if !line.is_empty() {
+                s.extend_from_slice(line.as_bytes());
+                s.extend_from_slice(eol.as_bytes());
+            }
         }
         let _ = (self.start_state, self.eol);
         let written = self.w.last_motion.map(|c| u16::from(c) * 10);

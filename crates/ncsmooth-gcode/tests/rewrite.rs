@@ -426,6 +426,66 @@ fn blending_is_bounded_around_smoothed_runs() {
     assert!(q.toolpath.events().any(|e| e.text == "G61"));
 }
 
+/// The program's own motion copied verbatim gets the verbatim bound where the program's
+/// mode is looser: before the first motion and after each run, while each run keeps its
+/// own; a program mode within the verbatim bound comes back, and one within the runs'
+/// bound (the default) too.
+#[test]
+fn verbatim_motion_gets_its_own_bound() {
+    let run = |src: &str, verbatim_mm: f64| -> String {
+        let p = parse(src).unwrap();
+        // The two G1 after the first rapid are replaced; the rest is copied.
+        let first_g1 = src.lines().position(|l| l.starts_with("G1")).unwrap() as u32 + 1;
+        let replaced =
+            |b: &Block| matches!(b, Block::Move(m) if m.line == first_g1 || m.line == first_g1 + 1);
+        let h = halves(&p.toolpath);
+        let mut out = p.toolpath.clone();
+        out.blocks.clear();
+        for b in &p.toolpath.blocks {
+            if replaced(b) {
+                if let Block::Move(m) = b {
+                    out.blocks.extend(
+                        h.blocks
+                            .iter()
+                            .filter(|c| matches!(c, Block::Move(n) if n.line == m.line))
+                            .cloned(),
+                    );
+                }
+            } else {
+                out.blocks.push(b.clone());
+            }
+        }
+        let opts = RewriteOptions::new(4, 1e-4)
+            .with_blend(Some(Blend {
+                p_mm: 0.001,
+                q_mm: 0.0,
+            }))
+            .with_verbatim_blend(Some(Blend {
+                p_mm: verbatim_mm,
+                q_mm: 0.0,
+            }));
+        String::from_utf8(rewrite(src.as_bytes(), &p, &out, &opts).unwrap()).unwrap()
+    };
+    let src = "G0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nG0 X5\nG1 Y5\nM2\n";
+    let t = run(src, 0.0095);
+    assert!(
+        t.starts_with("G64 P0.0095 Q0\nG0 X0 Y0 F100\nG64 P0.001 Q0\n"),
+        "{t}"
+    );
+    let after = t.split("G64 P0.001 Q0\n").nth(1).unwrap();
+    assert!(after.contains("G64 P0.0095 Q0\nG0 X5\n"), "{t}");
+    // The same as the runs' bound: one G64 before the first motion, one per run, as before.
+    let t = run(src, 0.001);
+    assert_eq!(t.matches("G64").count(), 2, "{t}");
+    // A program mode between the two bounds comes back after the run; `G64 P0.005`
+    // alone is looser (LinuxCNC's Q defaults to P: 0.01 mm in all).
+    let t = run(&format!("G64 P0.005 Q0\n{src}"), 0.0095);
+    assert!(t.contains("G64 P0.005 Q0\nG0 X5\n"), "{t}");
+    assert!(!t.contains("P0.0095"), "{t}");
+    let t = run(&format!("G64 P0.005\n{src}"), 0.0095);
+    assert!(t.contains("G64 P0.0095 Q0\nG0 X5\n"), "{t}");
+}
+
 /// Long lines: a finely cut arc comes back as a few long blocks within the chord, its end
 /// exact.
 #[test]
