@@ -39,14 +39,16 @@ pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
 /// look-ahead covers more of the path with the longer blocks (butterfly_1000 on grbl
 /// 1.1h: 8.66-8.79 s at 0.3 tol against 8.85-9.30 s at 0.1 tol).
 pub const STEPPER_CHORD_SHARE: f64 = 0.3;
-/// Share of the tolerance LinuxCNC's blending may use on the program's own motion copied
-/// verbatim (rapids, plunges, lines no run replaced): nearly all of it, as for the input
-/// run with `G64 P<tol>`, since those blocks are the programmed path. On camotics_vcarve
-/// (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2) its rapids' corners under the runs' `P0.001` cost
-/// 0.12 s (20.913 s, 20.793 s with `P<tol>`). 5 % is left for whoever measures the
-/// executed path from servo samples: at a corner the chords between samples cut inside
-/// the blend arc, and `linuxcnc_run.py` put a programmed vertex 0.01015 mm from the
-/// sampled path under `P0.01`.
+/// Share of the tolerance LinuxCNC's blending may use on the program's own rapids copied
+/// verbatim ([`ncsmooth_gcode::RewriteOptions::verbatim_blend`]): nearly all of it, as for
+/// the input run with `G64 P<tol>`, since those moves are the programmed path. On
+/// camotics_vcarve (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2) its rapids' corners under the runs'
+/// `P0.001` cost 0.11 s (20.913 s, 20.801 s with this share); linuxcnc_blur_torus gains
+/// 0.11 s per method. Copied feed lines keep the runs' `P`: cncjs_jsdc's opening G1 moves
+/// under this share ran 0.09 s slower (bspline 18.419 s against 18.327). 5 % is left for
+/// whoever measures the executed path from servo samples: at a corner the chords between
+/// samples cut inside the blend arc, and `linuxcnc_run.py` put a programmed vertex
+/// 0.01015 mm from the sampled path under `P0.01`.
 pub const VERBATIM_BLEND_SHARE: f64 = 0.95;
 
 /// Share of the tolerance LinuxCNC's blending may use (`G64 P`).
@@ -493,7 +495,7 @@ pub fn smooth_program(
         }
     }
     let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
-    // The program's own motion copied verbatim deviates by LinuxCNC's blending alone.
+    // The program's own rapids copied verbatim deviate by LinuxCNC's blending alone.
     let verbatim_blend = blend.map(|_| Blend {
         p_mm: tol * VERBATIM_BLEND_SHARE,
         q_mm: 0.0,

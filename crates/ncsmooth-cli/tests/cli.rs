@@ -1692,8 +1692,7 @@ fn linuxcnc_blending_follows_the_feed_with_acc() {
         let o = run(&a);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let text = std::fs::read_to_string(&out).unwrap();
-        // The program's own rapid gets the verbatim bound (0.95 tol), the runs theirs.
-        assert!(text.contains("G64 P0.0095 Q0\nG0 X40 Y0\n"), "{text}");
+        // The runs' bounds (a stretch of copied rapids would get 0.95 tol, left out).
         text.lines()
             .filter_map(|l| l.strip_prefix("G64 P"))
             .map(|l| l.split(' ').next().unwrap().parse().unwrap())

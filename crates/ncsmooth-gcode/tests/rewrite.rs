@@ -426,10 +426,10 @@ fn blending_is_bounded_around_smoothed_runs() {
     assert!(q.toolpath.events().any(|e| e.text == "G61"));
 }
 
-/// The program's own motion copied verbatim gets the verbatim bound where the program's
+/// The program's own rapids copied verbatim get the verbatim bound where the program's
 /// mode is looser: before the first motion and after each run, while each run keeps its
 /// own; a program mode within the verbatim bound comes back, and one within the runs'
-/// bound (the default) too.
+/// bound (the default) too. Copied feed lines keep the runs' bound.
 #[test]
 fn verbatim_motion_gets_its_own_bound() {
     let run = |src: &str, verbatim_mm: f64| -> String {
@@ -466,7 +466,7 @@ fn verbatim_motion_gets_its_own_bound() {
             }));
         String::from_utf8(rewrite(src.as_bytes(), &p, &out, &opts).unwrap()).unwrap()
     };
-    let src = "G0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nG0 X5\nG1 Y5\nM2\n";
+    let src = "G0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nG0 X5\nG0 Y5\nM2\n";
     let t = run(src, 0.0095);
     assert!(
         t.starts_with("G64 P0.0095 Q0\nG0 X0 Y0 F100\nG64 P0.001 Q0\n"),
@@ -484,6 +484,10 @@ fn verbatim_motion_gets_its_own_bound() {
     assert!(!t.contains("P0.0095"), "{t}");
     let t = run(&format!("G64 P0.005\n{src}"), 0.0095);
     assert!(t.contains("G64 P0.0095 Q0\nG0 X5\n"), "{t}");
+    // A copied feed line after the rapid: the runs' bound stays in force.
+    let t = run(&src.replace("G0 Y5", "G1 Y5"), 0.0095);
+    assert!(t.starts_with("G64 P0.0095 Q0\nG0 X0 Y0 F100\n"), "{t}");
+    assert_eq!(t.matches("G64").count(), 2, "{t}");
 }
 
 /// Long lines: a finely cut arc comes back as a few long blocks within the chord, its end
