@@ -657,6 +657,7 @@ pub fn rewrite(
             .map(|j| out[out_by[j].0])
     };
     let mut region: Option<Region> = None;
+    let mut runs_bound_over: Option<crate::source::PathMode> = None;
     // Motion code the next modal-motion line must be given, after a region.
     let mut pending_motion: Option<u16> = None;
     let rapids = rapids_ahead(lines, &orig, &orig_by, &changed);
@@ -689,6 +690,25 @@ pub fn rewrite(
                 r.flush(&mut s, &orig)?;
                 r.verbatim_blend = verbatim_at(i);
                 pending_motion = r.close(&mut s, eol, opts.decimals);
+                // The runs' bound left in force over copied feed lines, in the program's
+                // mode at this line.
+                runs_bound_over = (verbatim_at(i) == opts.blend).then_some(info.before.path);
+            }
+            // At the first rapid after the copied feed lines (only rapids follow), the
+            // verbatim bound, unless the program has set a mode of its own since.
+            let moves_here = orig_by[i].0 < orig_by[i].1;
+            if let (Some(path), Some(vb), true) =
+                (runs_bound_over, verbatim_at(i), rapids[i] && moves_here)
+            {
+                // (Compared by bound: a `G64` without `Q` holds a NaN.)
+                let bound = path.blend_bound_mm();
+                let same = bound == info.before.path.blend_bound_mm();
+                if same && bound > vb.p_mm + vb.q_mm && Some(vb) != opts.blend {
+                    let d = decimals_for(info.before.units, opts.decimals);
+                    s.extend_from_slice(blend_text(vb, info.before.units, d).as_bytes());
+                    s.extend_from_slice(eol.as_bytes());
+                }
+                runs_bound_over = None;
             }
             match pending_motion {
                 Some(code) if info.has(flags::MODAL_MOTION) => {
@@ -725,6 +745,9 @@ pub fn rewrite(
     Ok(s)
 }
 
+/// A move shorter than this (mm) is not counted as motion by [`rapids_ahead`].
+const ZERO_MOVE_MM: f64 = 1e-9;
+
 /// Per line: whether the copied lines from it up to the next replaced one move, and only
 /// at rapid, so that the verbatim bound ([`RewriteOptions::verbatim_blend`]) may be set
 /// there. A copied feed line stays under the runs' bound: LinuxCNC 2.9 accelerated
@@ -750,10 +773,13 @@ fn rapids_ahead(
         let unknown = own.is_empty()
             && l.has(flags::EXECUTED)
             && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION));
+        // A zero-length feed move (camotics_vcarve's `G1` to where its `G0` ended) is no
+        // motion for LinuxCNC.
         let feeds = (unknown && l.state.motion10 != 0)
-            || own
-                .iter()
-                .any(|m| m.kind != ncsmooth::path::MoveKind::Rapid);
+            || own.iter().any(|m| {
+                m.kind != ncsmooth::path::MoveKind::Rapid
+                    && m.segment.start().dist(m.segment.end()) > ZERO_MOVE_MM
+            });
         ahead = (ahead.0 && !feeds, ahead.1 || !own.is_empty() || unknown);
         out[i] = ahead == (true, true);
     }

@@ -488,6 +488,13 @@ fn verbatim_motion_gets_its_own_bound() {
     let t = run(&src.replace("G0 Y5", "G1 Y5"), 0.0095);
     assert!(t.starts_with("G64 P0.0095 Q0\nG0 X0 Y0 F100\n"), "{t}");
     assert_eq!(t.matches("G64").count(), 2, "{t}");
+    // Rapids after a copied feed line: the verbatim bound from the first rapid on.
+    let t = run(&src.replace("G0 X5", "G1 Y-1\nG0 X5"), 0.0095);
+    assert!(t.contains("G1 Y-1\nG64 P0.0095 Q0\nG0 X5\n"), "{t}");
+    assert_eq!(t.matches("G64").count(), 3, "{t}");
+    // Not where the program has set a mode of its own in between.
+    let t = run(&src.replace("G0 X5", "G1 Y-1\nG61\nG0 X5"), 0.0095);
+    assert_eq!(t.matches("G64").count(), 2, "{t}");
 }
 
 /// Long lines: a finely cut arc comes back as a few long blocks within the chord, its end
