@@ -745,6 +745,9 @@ pub fn rewrite(
     Ok(s)
 }
 
+/// `G80` as a motion code times ten ([`crate::source::WriteState::motion10`]).
+const MOTION_CANCELLED10: u16 = 800;
+
 /// A move shorter than this (mm) is not counted as motion by [`rapids_ahead`].
 const ZERO_MOVE_MM: f64 = 1e-9;
 
@@ -775,6 +778,8 @@ fn rapids_ahead(
             && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION));
         // A zero-length feed move (camotics_vcarve's `G1` to where its `G0` ended) is no
         // motion for LinuxCNC.
+        // G80 (motion mode cancelled) moves nothing.
+        let unknown = unknown && l.state.motion10 != MOTION_CANCELLED10;
         let feeds = (unknown && l.state.motion10 != 0)
             || own.iter().any(|m| {
                 m.kind != ncsmooth::path::MoveKind::Rapid
