@@ -671,9 +671,7 @@ pub fn rewrite(
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
         if let (Some(b), Some(true)) = (verbatim_at(i), first_motion.map(|f| f == i)) {
-            let d = decimals_for(info.before.units, opts.decimals);
-            s.extend_from_slice(blend_text(b, info.before.units, d).as_bytes());
-            s.extend_from_slice(eol.as_bytes());
+            push_blend_line(&mut s, b, info.before.units, opts.decimals, eol);
         }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
@@ -688,11 +686,11 @@ pub fn rewrite(
         } else {
             if let Some(mut r) = region.take() {
                 r.flush(&mut s, &orig)?;
-                r.verbatim_blend = verbatim_at(i);
-                pending_motion = r.close(&mut s, eol, opts.decimals);
+                let after = verbatim_at(i);
+                pending_motion = r.close(&mut s, eol, opts.decimals, after);
                 // The runs' bound left in force over copied feed lines, in the program's
                 // mode at this line.
-                runs_bound_over = (verbatim_at(i) == opts.blend).then_some(info.before.path);
+                runs_bound_over = (after == opts.blend).then_some(info.before.path);
             }
             // At the first rapid after the copied feed lines (only rapids follow), the
             // verbatim bound, unless the program has set a mode of its own since.
@@ -704,9 +702,7 @@ pub fn rewrite(
                 let bound = path.blend_bound_mm();
                 let same = bound == info.before.path.blend_bound_mm();
                 if same && bound > vb.p_mm + vb.q_mm && Some(vb) != opts.blend {
-                    let d = decimals_for(info.before.units, opts.decimals);
-                    s.extend_from_slice(blend_text(vb, info.before.units, d).as_bytes());
-                    s.extend_from_slice(eol.as_bytes());
+                    push_blend_line(&mut s, vb, info.before.units, opts.decimals, eol);
                 }
                 runs_bound_over = None;
             }
@@ -735,8 +731,7 @@ pub fn rewrite(
     if let Some(mut r) = region.take() {
         r.flush(&mut s, &orig)?;
         // Nothing moves after the last run.
-        r.verbatim_blend = opts.blend;
-        r.close(&mut s, eol, opts.decimals);
+        r.close(&mut s, eol, opts.decimals, opts.blend);
     }
     if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
         s.extend_from_slice(eol.as_bytes());
@@ -747,9 +742,6 @@ pub fn rewrite(
 
 /// `G80` as a motion code times ten ([`crate::source::WriteState::motion10`]).
 const MOTION_CANCELLED10: u16 = 800;
-
-/// A move shorter than this (mm) is not counted as motion by [`rapids_ahead`].
-const ZERO_MOVE_MM: f64 = 1e-9;
 
 /// Per line: whether the copied lines from it up to the next replaced one move, and only
 /// at rapid, so that the verbatim bound ([`RewriteOptions::verbatim_blend`]) may be set
@@ -773,17 +765,18 @@ fn rapids_ahead(
         }
         let own = &orig[orig_by[i].0..orig_by[i].1];
         let l = &lines[i];
+        // A motion line whose moves are not known; G80 (motion mode cancelled) moves
+        // nothing.
         let unknown = own.is_empty()
             && l.has(flags::EXECUTED)
-            && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION));
+            && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION))
+            && l.state.motion10 != MOTION_CANCELLED10;
         // A zero-length feed move (camotics_vcarve's `G1` to where its `G0` ended) is no
         // motion for LinuxCNC.
-        // G80 (motion mode cancelled) moves nothing.
-        let unknown = unknown && l.state.motion10 != MOTION_CANCELLED10;
         let feeds = (unknown && l.state.motion10 != 0)
             || own.iter().any(|m| {
                 m.kind != ncsmooth::path::MoveKind::Rapid
-                    && m.segment.start().dist(m.segment.end()) > ZERO_MOVE_MM
+                    && m.segment.start().dist(m.segment.end()) > ncsmooth::verify::DEGENERATE_MM
             });
         ahead = (ahead.0 && !feeds, ahead.1 || !own.is_empty() || unknown);
         out[i] = ahead == (true, true);
@@ -824,8 +817,6 @@ struct Region<'a> {
     eol: &'static str,
     /// The `G64` written at the start of the run, if any.
     blend: Option<Blend>,
-    /// The blending for the verbatim motion after the run, if any.
-    verbatim_blend: Option<Blend>,
     /// The block floor, if any, and the programmed moves of the run so far (indices into
     /// the program's moves).
     floor: Option<BlockFloor>,
@@ -840,6 +831,13 @@ const FLOOR_CONTEXT_MOVES: usize = 8;
 /// `G64 P Q` for `blend` in a program in `units` ([`crate::writer::blend_words`]).
 fn blend_text(blend: Blend, units: Units, decimals: usize) -> String {
     crate::writer::blend_words(blend.p_mm, blend.q_mm, unit_mm(units), decimals)
+}
+
+/// Appends [`blend_text`] as a line of its own (`decimals`: the options' decimals).
+fn push_blend_line(s: &mut Vec<u8>, blend: Blend, units: Units, decimals: usize, eol: &str) {
+    let text = blend_text(blend, units, decimals_for(units, decimals));
+    s.extend_from_slice(text.as_bytes());
+    s.extend_from_slice(eol.as_bytes());
 }
 
 /// The text that sets path mode `mode` in a program in `units`, if it can be written.
@@ -1010,9 +1008,7 @@ impl<'a> Region<'a> {
             s.extend_from_slice(eol.as_bytes());
         }
         if let Some(b) = opts.blend {
-            let d = decimals_for(st.units, opts.decimals);
-            s.extend_from_slice(blend_text(b, st.units, d).as_bytes());
-            s.extend_from_slice(eol.as_bytes());
+            push_blend_line(s, b, st.units, opts.decimals, eol);
         }
         Region {
             w,
@@ -1022,16 +1018,21 @@ impl<'a> Region<'a> {
             end_state: st,
             eol,
             blend: opts.blend,
-            verbatim_blend: opts.verbatim_blend_in_force(),
             floor: opts.block_floor.filter(|_| frame_chains_lines(opts.emit)),
             program: None,
         }
     }
 
-    /// Writes what the next verbatim line expects (`decimals`: the options' decimals);
-    /// returns the motion code a following modal-motion line must be given, if the last
-    /// one written differs.
-    fn close(self, s: &mut Vec<u8>, eol: &str, decimals: usize) -> Option<u16> {
+    /// Writes what the next verbatim line expects, `verbatim` the bound for the copied
+    /// lines after the run (`decimals`: the options' decimals); returns the motion code a
+    /// following modal-motion line must be given, if the last one written differs.
+    fn close(
+        self,
+        s: &mut Vec<u8>,
+        eol: &str,
+        decimals: usize,
+        verbatim: Option<Blend>,
+    ) -> Option<u16> {
         debug_assert!(self.pending.is_empty());
         let st = self.end_state;
         let mut restore = String::new();
@@ -1063,7 +1064,7 @@ impl<'a> Region<'a> {
         }
         // The verbatim bound, on a line of its own like the runs' `G64`.
         let mut bound = None;
-        if let (Some(b), Some(vb)) = (self.blend, self.verbatim_blend) {
+        if let (Some(b), Some(vb)) = (self.blend, verbatim) {
             // The program's own mode comes back only when it is at least as tight as the
             // verbatim bound; otherwise the verbatim bound is set, unless the run's is it.
             if st.path.blend_bound_mm() <= vb.p_mm + vb.q_mm {
@@ -1074,14 +1075,15 @@ impl<'a> Region<'a> {
                     restore.push_str(&t);
                 }
             } else if vb != b {
-                bound = Some(blend_text(vb, st.units, decimals_for(st.units, decimals)));
+                bound = Some(vb);
             }
         }
-        for line in [Some(restore), bound].into_iter().flatten() {
-            if !line.is_empty() {
-                s.extend_from_slice(line.as_bytes());
-                s.extend_from_slice(eol.as_bytes());
-            }
+        if !restore.is_empty() {
+            s.extend_from_slice(restore.as_bytes());
+            s.extend_from_slice(eol.as_bytes());
+        }
+        if let Some(vb) = bound {
+            push_blend_line(s, vb, st.units, decimals, eol);
         }
         let _ = (self.start_state, self.eol);
         let written = self.w.last_motion.map(|c| u16::from(c) * 10);
