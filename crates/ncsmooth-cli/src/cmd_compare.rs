@@ -182,7 +182,7 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
         .with_context(|| format!("writing {gfile}"))?;
     pb.set_message(format!("{name}: planning"));
     let t1 = Instant::now();
-    let smoothed = smooth_for_plan(&job.program.toolpath, m, job.tol)?;
+    let smoothed = smooth_for_plan(&job.program.toolpath, m, job.tol, None)?;
     let smooth_s = t1.elapsed().as_secs_f64();
     let sfile = job.setpoints.then(|| format!("{}_{name}.csv", job.stem));
     let csv = match &sfile {

@@ -28,6 +28,7 @@ use ncsmooth::interp::{
     execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink, SetpointWriter,
 };
 use ncsmooth::path::{Move, MoveKind, Toolpath};
+use ncsmooth::smooth::band_time::TimeLimits;
 use ncsmooth::smooth::{Method, SmoothReport, Smoothed};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
@@ -99,6 +100,12 @@ pub struct PlanArgs {
     /// Smoothing method applied before planning (`none` plans the program as written).
     #[arg(long, value_enum, default_value = "none")]
     pub method: MethodArg,
+    /// Reshape each method's fitted runs at their slow spots (speed below 0.7 x feed) to
+    /// the fastest curve inside the same band for `--feed` and `--acc` (minimum-time
+    /// optimisation, seconds per spot: butterfly_1000 8.668 -> 8.640 s with nurbs, in
+    /// about 30 s of computing). Off by default.
+    #[arg(long)]
+    pub time_shape: bool,
     /// Two-sided smoothing tolerance (mm).
     #[arg(long, default_value_t = 0.01)]
     pub tol: f64,
@@ -335,8 +342,13 @@ pub(crate) fn check_period(period: f64) -> Result<()> {
 /// with the streamed plan's window ([`crate::plan_stream::plan_smoother`]), so that a
 /// program held whole (`compare`, `--report-html`, stdin) plans the path a streamed file
 /// does, block for block.
-pub(crate) fn smooth_for_plan(tp: &Toolpath, method: Method, tol: f64) -> Result<Smoothed> {
-    let mut smoother = plan_smoother(method, tol)?;
+pub(crate) fn smooth_for_plan(
+    tp: &Toolpath,
+    method: Method,
+    tol: f64,
+    time_shape: Option<TimeLimits>,
+) -> Result<Smoothed> {
+    let mut smoother = plan_smoother(method, tol, time_shape)?;
     let mut out = Toolpath {
         blocks: Vec::with_capacity(tp.blocks.len()),
         ..Toolpath::new(tp.start)
@@ -630,11 +642,21 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     } else {
         io::display_name(&a.file).to_string()
     };
+    let shape = a
+        .time_shape
+        .then(|| -> Result<TimeLimits> {
+            Ok(TimeLimits {
+                feed_mm_s: a.feed,
+                acc_mm_s2: axes("acc", &a.acc)?,
+            })
+        })
+        .transpose()?;
     let mut streamed_input = None;
     let toolpath = if a.file == BUILTIN_BUTTERFLY {
         Some(builtin_butterfly())
     } else if streamed {
-        let input = StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol)?;
+        let input =
+            StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol, shape)?;
         streamed_input = Some(input);
         None
     } else {
@@ -688,7 +710,7 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     let t1 = Instant::now();
     let (mut source, program) = match (toolpath, streamed_input) {
         (Some(toolpath), _) => {
-            let smoothed = smooth_for_plan(&toolpath, method, a.tol)?;
+            let smoothed = smooth_for_plan(&toolpath, method, a.tol, shape)?;
             // The program is kept only for the page (its path and the tolerance band).
             let program = a.report_html.is_some().then_some(toolpath);
             (Source::Whole(smoothed), program)

@@ -17,6 +17,7 @@ use ncsmooth::feed::grid::IndexFeeder;
 use ncsmooth::feed::jerk::{fastest_split, SPLIT_SEARCH_MAX_BLOCKS};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::interp::{execute_streamed, InterpOptions, PlanError, PlanReport, SetpointSink};
+use ncsmooth::smooth::band_time::{TimeLimits, TimeShapeOptions};
 use ncsmooth::smooth::{Method, SmoothOptions, SmoothReport};
 use ncsmooth::{Block, StreamOptions, StreamSmoother, Toolpath, Vec3};
 use ncsmooth_gcode::{BlockReader, ParseError, ParseOptions};
@@ -34,13 +35,19 @@ pub const PLAN_WINDOW_MOVES: usize = 4096;
 const READ_BATCH_BLOCKS: usize = 4096;
 
 /// The smoother of `plan` (and of `compare`, which plans the same path): `method` to the
-/// whole tolerance `tol_mm`, chains cut at [`PLAN_WINDOW_MOVES`].
-pub(crate) fn plan_smoother(method: Method, tol_mm: f64) -> Result<StreamSmoother> {
-    let sopts = SmoothOptions {
+/// whole tolerance `tol_mm`, chains cut at [`PLAN_WINDOW_MOVES`]; runs reshaped for
+/// `time_shape`'s limits when given (`--time-shape`).
+pub(crate) fn plan_smoother(
+    method: Method,
+    tol_mm: f64,
+    time_shape: Option<TimeLimits>,
+) -> Result<StreamSmoother> {
+    let mut sopts = SmoothOptions {
         method,
         tol_mm,
         ..Default::default()
     };
+    sopts.run.fit.time_shape = time_shape.map(TimeShapeOptions::new);
     let mut stream = StreamOptions::default();
     stream.window_moves = PLAN_WINDOW_MOVES;
     Ok(StreamSmoother::new(sopts, stream).map_err(|e| io::BadInput(e.to_string()))?)
@@ -73,9 +80,10 @@ impl<'o> StreamedInput<'o> {
         parse: &'o ParseOptions,
         method: Method,
         tol_mm: f64,
+        time_shape: Option<TimeLimits>,
     ) -> Result<Self> {
         let reader = BlockReader::open(path, name, parse).map_err(|e| reported(e, path))?;
-        let smoother = plan_smoother(method, tol_mm)?;
+        let smoother = plan_smoother(method, tol_mm, time_shape)?;
         let mut input = StreamedInput {
             reader,
             smoother,

@@ -145,7 +145,7 @@ impl Nurbs {
 
     /// A2.3: basis functions and their derivatives up to order `nd` (<= 2) at `u` in `span`;
     /// `ders[k][j]` is the k-th derivative of `N_{span-p+j}`.
-    fn ders_basis(&self, span: usize, u: f64, nd: usize) -> [[f64; MAX_DEGREE + 1]; 3] {
+    pub(crate) fn ders_basis(&self, span: usize, u: f64, nd: usize) -> [[f64; MAX_DEGREE + 1]; 3] {
         let p = self.degree;
         let k = &self.knots;
         let mut ndu = [[0.0; MAX_DEGREE + 1]; MAX_DEGREE + 1];

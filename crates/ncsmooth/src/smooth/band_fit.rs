@@ -65,6 +65,7 @@
 //! whose band cannot be met returns `None` and the method falls back to its
 //! corner-by-corner transitions. Cost: `O(n)` per ADMM iteration (one banded solve).
 
+use super::band_time::{time_shape, TimeShapeOptions};
 use super::screen::ScreenOptions;
 use crate::geom::{Line, Nurbs, ParamCurveNearest, Segment, Vec3};
 use crate::verify::deviation_segments;
@@ -128,6 +129,9 @@ pub struct BandFitOptions {
     pub max_iters: usize,
     /// Most knot refinements (solves after the first). Default 6.
     pub max_refinements: usize,
+    /// Reshape the fit for time at its slow spots under these limits
+    /// ([`super::band_time`]). Default `None`: the fit as solved.
+    pub time_shape: Option<TimeShapeOptions>,
 }
 
 impl Default for BandFitOptions {
@@ -137,6 +141,7 @@ impl Default for BandFitOptions {
             band_share: 0.95,
             max_iters: 4000,
             max_refinements: 6,
+            time_shape: None,
         }
     }
 }
@@ -774,7 +779,17 @@ pub fn band_fit(
     }
     let u = chord_params(pts)?;
     let breaks = initial_breaks(pts, &u);
-    let (curve, dev, iterations) = fit_on(pts, &u, breaks, start, end, tol_mm, accuracy, opts)?;
+    let (mut curve, mut dev, iterations) =
+        fit_on(pts, &u, breaks, start, end, tol_mm, accuracy, opts)?;
+    if let Some(ts) = &opts.time_shape {
+        let r = ts.band_share * tol_mm;
+        if let Some((c, d, _gain)) =
+            time_shape(&curve, pts, &u, start, end, r, tol_mm, accuracy, ts)
+        {
+            curve = c;
+            dev = d;
+        }
+    }
     // The same curve on the knot domain [0, 1], as the other fitted curves.
     let len = u[u.len() - 1];
     let knots = curve.knots().iter().map(|k| k / len).collect();

@@ -42,6 +42,7 @@ pub mod arc_corner;
 pub mod arc_joint;
 pub mod arc_spline;
 pub mod band_fit;
+pub mod band_time;
 pub mod bspline_corner;
 pub mod nurbs_hybrid;
 pub mod run_mode;

@@ -201,10 +201,14 @@ fn fit_run(chain: &Chain<'_>, r: Run, opts: &SmoothOptions, family: Family) -> O
     let tol = opts.tol_mm * super::arc_corner::CORNER_TOL_SHARE;
     let mut fo = opts.run.fit.clone();
     // Room for the trigonometric spline or the arcs that follow the B-spline.
-    match family {
-        Family::Trig => fo.band_share -= TRIG_BAND_MARGIN,
-        Family::Arcs => fo.band_share -= ARC_BAND_MARGIN,
-        Family::Bezier => {}
+    let margin = match family {
+        Family::Trig => TRIG_BAND_MARGIN,
+        Family::Arcs => ARC_BAND_MARGIN,
+        Family::Bezier => 0.0,
+    };
+    fo.band_share -= margin;
+    if let Some(ts) = fo.time_shape.as_mut() {
+        ts.band_share -= margin;
     }
     let fit = band_fit(&pts, c0, c1, tol, opts.tol_mm * MEASURE_SHARE, &fo)?;
     let mut u = vec![0.0];
