@@ -102,8 +102,8 @@ pub struct PlanArgs {
     pub method: MethodArg,
     /// Reshape each method's fitted runs at their slow spots (speed below 0.7 x feed) to
     /// the fastest curve inside the same band for `--feed` and `--acc` (minimum-time
-    /// optimisation, seconds per spot: butterfly_1000 8.668 -> 8.640 s with nurbs, in
-    /// about 30 s of computing). Off by default.
+    /// optimisation, about a second per spot: butterfly_1000 8.668 -> 8.641 s with nurbs,
+    /// in 15 s of computing). Off by default.
     #[arg(long)]
     pub time_shape: bool,
     /// Two-sided smoothing tolerance (mm).

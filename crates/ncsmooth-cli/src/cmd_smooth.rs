@@ -21,6 +21,7 @@
 use crate::{io, load, Ui};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use ncsmooth::smooth::band_time::{TimeLimits, TimeShapeOptions};
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::stats::PathStats;
@@ -181,6 +182,10 @@ pub struct SmoothArgs {
     /// feeds].
     #[arg(long, requires = "acc")]
     pub feed: Option<f64>,
+    /// Reshape the fitted runs at their slow spots for least time under --feed and --acc
+    /// inside the same band (as `plan --time-shape`; seconds of computing per spot).
+    #[arg(long, requires_all = ["acc", "feed"])]
+    pub time_shape: bool,
 }
 
 /// Dialect names.
@@ -289,6 +294,12 @@ impl SmoothArgs {
                 .into());
             }
             o.trig.corner = CornerStyle::Loop { loop_size_mm: size };
+        }
+        if let (true, Some(acc), Some(feed)) = (self.time_shape, self.acc, self.feed) {
+            o.run.fit.time_shape = Some(TimeShapeOptions::new(TimeLimits {
+                feed_mm_s: feed,
+                acc_mm_s2: [acc; 3],
+            }));
         }
         Ok(o)
     }

@@ -68,7 +68,7 @@
 use super::band_time::{time_shape, TimeShapeOptions};
 use super::screen::ScreenOptions;
 use crate::geom::{Line, Nurbs, ParamCurveNearest, Segment, Vec3};
-use crate::verify::deviation_segments;
+use crate::verify::{deviation_segments, Deviation};
 
 /// Interior samples per knot span for the curve-to-chord constraints (the dense check
 /// after a solve catches the curve between them: 2 costs fewer rows per iteration than 3
@@ -690,11 +690,6 @@ fn fit_on(
     opts: &BandFitOptions,
 ) -> Option<(Nurbs, f64, usize)> {
     let r = opts.band_share * tol_mm;
-    let lines: Vec<Segment> = pts
-        .windows(2)
-        .map(|s| Segment::Line(Line::new(s[0], s[1])))
-        .collect();
-    let prog: Vec<(&Segment, u32)> = lines.iter().map(|s| (s, 0)).collect();
     let mut iterations = 0;
     // The previous solve's curve: the next one starts from it.
     let mut prev: Option<Nurbs> = None;
@@ -717,7 +712,7 @@ fn fit_on(
                     sol.x.clone(),
                     qp.knots.clone(),
                 )?));
-                let dev = deviation_segments(&[(&seg, 0)], &prog, accuracy);
+                let dev = polyline_deviation(&[(&seg, 0)], pts, accuracy);
                 let dm = dev.max_mm();
                 let Segment::Nurbs(curve) = seg else {
                     unreachable!("built as a NURBS above")
@@ -737,6 +732,20 @@ fn fit_on(
         prev = Nurbs::bspline(3, sol.x, qp.knots.clone());
     }
     None
+}
+
+/// The two-sided deviation of `out` from the polyline `pts`, measured within `accuracy`.
+pub(crate) fn polyline_deviation(
+    out: &[(&Segment, u32)],
+    pts: &[Vec3],
+    accuracy: f64,
+) -> Deviation {
+    let lines: Vec<Segment> = pts
+        .windows(2)
+        .map(|s| Segment::Line(Line::new(s[0], s[1])))
+        .collect();
+    let prog: Vec<(&Segment, u32)> = lines.iter().map(|s| (s, 0)).collect();
+    deviation_segments(out, &prog, accuracy)
 }
 
 /// The initial knot breakpoints: the points' parameters, with the chords beside a vertex

@@ -23,7 +23,9 @@
 //!    of `2 ds / (v_k + v_(k+1))`. Accelerations are taken at [`TimeShapeOptions::acc_share`]
 //!    of the limits, the planner's reserve.
 //! 2. **Spots.** Local minima of the modelled speed below
-//!    [`TimeShapeOptions::slow_share`] of the feed, slowest first.
+//!    [`TimeShapeOptions::slow_share`] of the feed, slowest first, far enough apart that
+//!    the control points they move do not share a span; each spot is shaped on its own
+//!    (in parallel, [`crate::par`]) and the moved control points are merged.
 //! 3. **Window.** Knots are inserted (NURBS Book A5.1, the curve unchanged) so that the
 //!    spans within [`TimeShapeOptions::free_half_mm`] of the spot are at most
 //!    [`TimeShapeOptions::dense_span_mm`] long; the control points whose Greville
@@ -36,21 +38,24 @@
 //!    band's two sides at the samples (each sample's distance to the run's polyline beyond
 //!    `r`, each vertex's distance to the sampled curve beyond `r`), minimised by L-BFGS
 //!    (Nocedal and Wright, algorithm 7.4, Armijo backtracking) on forward-difference
-//!    gradients, for a rising sequence of weights [`PENALTY_WEIGHTS`].
+//!    gradients, for a rising sequence of weights [`PENALTY_WEIGHTS`], then rounds of
+//!    coordinate sweeps and L-BFGS at the last weight. A difference quotient moves one
+//!    control point: only its samples are re-evaluated, and the two passes are redone only
+//!    until they meet the cached profile again.
 //! 5. **Acceptance.** The reshaped curve is measured exactly against the run's polyline
-//!    ([`deviation_segments`]); a window is kept only when the deviation is within the
+//!    ([`crate::verify::deviation_segments`]); a window is kept only when the deviation is within the
 //!    tolerance and the model time fell by at least [`MIN_GAIN_S`].
 //!
 //! ## Limits
 //! The optimisation is local (a start at the band fit, a fixed knot layout); the model
 //! ignores jerk and the period, and samples the band; the planner runs on the result as on
 //! any curve, so what it plans is what counts (butterfly_1000, tol 0.01, 50 mm/s,
-//! 500 mm/s^2: see the README). The cost is a few hundred model evaluations per variable
-//! and spot, so it is off by default (`--time-shape` on the command line).
+//! 500 mm/s^2: see the README). The cost is about a second per spot (thousands of
+//! gradient evaluations over some 100 variables), so it is off by default
+//! (`--time-shape` on the command line).
 
-use super::band_fit::EndCond;
-use crate::geom::{Line, Nurbs, Segment, Vec3};
-use crate::verify::deviation_segments;
+use super::band_fit::{polyline_deviation, EndCond};
+use crate::geom::{Nurbs, Segment, Vec3};
 
 /// The machine limits the shaping minimises time for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,7 +84,8 @@ pub struct TimeShapeOptions {
     /// Half-length (mm) of the curve over which a spot's time is modelled. Default 4 mm
     /// (a slow-down from 50 mm/s at 500 mm/s^2 takes 2.5 mm).
     pub window_mm: f64,
-    /// Half-length (mm) of the reshaped part around a spot. Default 0.5 mm.
+    /// Half-length (mm) of the reshaped part around a spot. Default 0.7 mm (butterfly_1000
+    /// with nurbs: 0.5 mm 8.642 s, 0.7 mm 8.641 s, 1 mm 8.644 s).
     pub free_half_mm: f64,
     /// Longest knot span (mm) in the reshaped part. Default 0.04 mm.
     pub dense_span_mm: f64,
@@ -89,7 +95,8 @@ pub struct TimeShapeOptions {
     /// L-BFGS iterations per penalty weight. Default 150.
     pub max_iters: usize,
     /// Rounds of coordinate sweeps, each followed by L-BFGS, at the last penalty weight.
-    /// Default 4 (butterfly_1000: 8.643 s after 1 round, 8.641 after 2, 8.640 after 4).
+    /// Default 4 (butterfly_1000 with nurbs: 8.643 s after 1 round, 8.641 after 4; 8 and
+    /// 12 rounds gain 0.3 ms more of model time).
     pub polish_rounds: usize,
 }
 
@@ -102,7 +109,7 @@ impl TimeShapeOptions {
             band_share: 0.975,
             slow_share: 0.7,
             window_mm: 4.0,
-            free_half_mm: 0.5,
+            free_half_mm: 0.7,
             dense_span_mm: 0.04,
             sample_mm: 0.002,
             max_iters: 150,
@@ -198,6 +205,7 @@ impl Model {
     }
     /// The time (s) along samples `g` with chord lengths `ds`, entering at `x0` and
     /// leaving at `x1` (at most); `x` is scratch.
+    #[cfg(test)]
     fn time(&self, g: &[Geo], ds: &[f64], x0: f64, x1: f64, x: &mut Vec<f64>) -> f64 {
         self.profile(g, ds, x0, x1, x);
         ds.iter()
@@ -271,14 +279,33 @@ struct Window<'a> {
     live: (usize, usize),
     x_in: f64,
     x_out: f64,
-    pts: &'a [Vec3],
-    u: &'a [f64],
+    band: Band<'a>,
     /// Vertices in reach of the live samples, with the sample range searched for each.
     verts: Vec<(usize, usize, usize)>,
-    r: f64,
     geo: Vec<Geo>,
-    scratch: Vec<f64>,
     ds: Vec<f64>,
+    /// The objective's parts at the control points of the last full evaluation.
+    cache: Cache,
+}
+
+/// What a full evaluation leaves for the incremental ones: per sample the speed cap, the
+/// backward and the final profile, per interval its time, per live sample and vertex its
+/// penalty term, and the totals.
+#[derive(Default)]
+struct Cache {
+    cap: Vec<f64>,
+    xb: Vec<f64>,
+    x: Vec<f64>,
+    dt: Vec<f64>,
+    pen_s: Vec<f64>,
+    pen_v: Vec<f64>,
+    time: f64,
+    pen: f64,
+}
+
+/// Time of one interval of length `ds` between speeds `sqrt(xa)` and `sqrt(xb)`.
+fn dt(ds: f64, xa: f64, xb: f64) -> f64 {
+    2.0 * ds / (xa.sqrt() + xb.sqrt()).max(1e-9)
 }
 
 impl<'a> Window<'a> {
@@ -300,39 +327,153 @@ impl<'a> Window<'a> {
             self.ds[k] = self.geo[k].p.dist(self.geo[k + 1].p);
         }
     }
-    fn time(&mut self) -> f64 {
-        let mut x = std::mem::take(&mut self.scratch);
-        let t = self
-            .model
-            .time(&self.geo, &self.ds, self.x_in, self.x_out, &mut x);
-        self.scratch = x;
-        t
-    }
-    /// `sum (excess / r)^2` over the live samples and the window's vertices.
-    fn penalty(&self) -> f64 {
-        let r = self.r * PENALTY_BAND_SHARE;
-        let ex = |d: f64| ((d - r).max(0.0) / r).powi(2);
-        let mut p = 0.0;
-        for k in self.live.0..self.live.1 {
-            let q = self.geo[k].p;
-            let c = self.u.partition_point(|&w| w <= self.params[k]).max(1) - 1;
-            let lo = c.saturating_sub(2);
-            let hi = (c + 3).min(self.pts.len() - 1);
-            let d = (lo..hi)
-                .map(|j| seg_dist(q, self.pts[j], self.pts[j + 1]))
-                .fold(f64::INFINITY, f64::min);
-            p += ex(d);
+    /// The speed cap at sample `k`, the window's entry and exit speeds included.
+    fn cap_at(&self, k: usize) -> f64 {
+        let c = self.model.cap(&self.geo[k]);
+        if k == 0 {
+            c.min(self.x_in)
+        } else if k + 1 == self.geo.len() {
+            c.min(self.x_out)
+        } else {
+            c
         }
-        for &(i, lo, hi) in &self.verts {
-            let d = (lo..hi)
-                .map(|k| self.geo[k].p.dist(self.pts[i]))
-                .fold(f64::INFINITY, f64::min);
-            p += ex(d);
-        }
-        p
     }
+    /// The penalty term `(excess / r)^2` of live sample `k` (distance to the polyline).
+    fn sample_pen(&self, k: usize) -> f64 {
+        let Band { pts, u, r, .. } = self.band;
+        let q = self.geo[k].p;
+        let c = u.partition_point(|&w| w <= self.params[k]).max(1) - 1;
+        let (lo, hi) = (c.saturating_sub(2), (c + 3).min(pts.len() - 1));
+        let d = (lo..hi)
+            .map(|j| seg_dist(q, pts[j], pts[j + 1]))
+            .fold(f64::INFINITY, f64::min);
+        excess(d, r)
+    }
+    /// The penalty term of window vertex `vi` (its distance to the sampled curve).
+    fn vertex_pen(&self, vi: usize) -> f64 {
+        let (i, lo, hi) = self.verts[vi];
+        let p = self.band.pts[i];
+        let d = (lo..hi)
+            .map(|k| self.geo[k].p.dist_sq(p))
+            .fold(f64::INFINITY, f64::min)
+            .sqrt();
+        excess(d, self.band.r)
+    }
+    /// Evaluates everything at the current control points into the cache; the objective
+    /// at penalty weight `w`.
     fn objective(&mut self, w: f64) -> f64 {
-        self.time() + w * self.penalty()
+        let n = self.geo.len();
+        let mut c = std::mem::take(&mut self.cache);
+        c.cap = (0..n).map(|k| self.cap_at(k)).collect();
+        c.xb = c.cap.clone();
+        for k in (0..n - 1).rev() {
+            c.xb[k] = self.back_step(k, c.cap[k], c.xb[k + 1]);
+        }
+        c.x = c.xb.clone();
+        for k in 1..n {
+            c.x[k] = self.fwd_step(k, c.xb[k], c.x[k - 1]);
+        }
+        c.dt = (0..n - 1)
+            .map(|k| dt(self.ds[k], c.x[k], c.x[k + 1]))
+            .collect();
+        c.time = c.dt.iter().sum();
+        c.pen_s = (self.live.0..self.live.1)
+            .map(|k| self.sample_pen(k))
+            .collect();
+        c.pen_v = (0..self.verts.len()).map(|v| self.vertex_pen(v)).collect();
+        c.pen = c.pen_s.iter().sum::<f64>() + c.pen_v.iter().sum::<f64>();
+        let f = c.time + w * c.pen;
+        self.cache = c;
+        f
+    }
+    /// The backward pass at sample `k` below its cap, from `next` at `k + 1`.
+    fn back_step(&self, k: usize, cap: f64, next: f64) -> f64 {
+        let (lo, _) = self.model.u_range(&self.geo[k + 1], next);
+        cap.min(next - 2.0 * self.ds[k] * lo)
+    }
+    /// The forward pass at sample `k` below its backward limit, from `prev` at `k - 1`.
+    fn fwd_step(&self, k: usize, xb: f64, prev: f64) -> f64 {
+        let (_, hi) = self.model.u_range(&self.geo[k - 1], prev);
+        xb.min(prev + 2.0 * self.ds[k - 1] * hi)
+    }
+    /// The objective at weight `w` after the geometry of samples `lo..hi` changed since
+    /// the last full evaluation (the cache), without updating it: the passes are redone
+    /// only until they meet the cached profile again, which on a short change they do
+    /// within a few samples unless it moves the slowest point.
+    fn changed_objective(&self, w: f64, lo: usize, hi: usize) -> f64 {
+        let c = &self.cache;
+        let n = self.geo.len();
+        let top = hi.min(n);
+        // Backward: new values at indices kb..top, stored top-down.
+        let mut xb_new: Vec<f64> = Vec::with_capacity(top - lo + 8);
+        let mut k = top;
+        while k > 0 {
+            k -= 1;
+            let cap = if k >= lo { self.cap_at(k) } else { c.cap[k] };
+            let v = if k + 1 < n {
+                let next = xb_new.last().copied().unwrap_or(c.xb[k + 1]);
+                self.back_step(k, cap, next)
+            } else {
+                cap
+            };
+            if k + 2 <= lo && v == c.xb[k] {
+                k += 1;
+                break;
+            }
+            xb_new.push(v);
+        }
+        let kb = k;
+        let xb_at = |k: usize| {
+            if k >= kb && k < top {
+                xb_new[top - 1 - k]
+            } else {
+                c.xb[k]
+            }
+        };
+        // Forward from kb until it meets the cached profile beyond the change.
+        let mut x_new: Vec<f64> = Vec::with_capacity(top - kb + 8);
+        let mut k = kb;
+        while k < n {
+            let v = if k == 0 {
+                xb_at(0)
+            } else {
+                let prev = if k > kb {
+                    x_new[k - kb - 1]
+                } else {
+                    c.x[k - 1]
+                };
+                self.fwd_step(k, xb_at(k), prev)
+            };
+            if k > top && v == c.x[k] {
+                break;
+            }
+            x_new.push(v);
+            k += 1;
+        }
+        let kf = kb + x_new.len();
+        let x_at = |k: usize| {
+            if k >= kb && k < kf {
+                x_new[k - kb]
+            } else {
+                c.x[k]
+            }
+        };
+        let (i0, i1) = (kb.saturating_sub(1), kf.min(n - 1));
+        let mut time = c.time;
+        for i in i0..i1 {
+            time += dt(self.ds[i], x_at(i), x_at(i + 1)) - c.dt[i];
+        }
+        let mut pen = c.pen;
+        let (la, lb) = (lo.max(self.live.0), hi.min(self.live.1));
+        for k in la..lb {
+            pen += self.sample_pen(k) - c.pen_s[k - self.live.0];
+        }
+        for (vi, &(_, a, b)) in self.verts.iter().enumerate() {
+            if a < hi && lo < b {
+                pen += self.vertex_pen(vi) - c.pen_v[vi];
+            }
+        }
+        time + w * pen
     }
     fn get(&self) -> Vec<f64> {
         self.vars.iter().map(|&(j, a)| self.ctrl[j][a]).collect()
@@ -346,24 +487,43 @@ impl<'a> Window<'a> {
         let (lo, hi) = self.live;
         self.refresh(lo, hi);
     }
+    /// Moves variable `vi` by `step` (mm) and refreshes the samples it reaches: the
+    /// objective at `w` after the move (the cache left as it was) and the control point
+    /// before it, for [`Window::restore`].
+    fn nudge(&mut self, vi: usize, step: f64, w: f64) -> (f64, Vec3) {
+        let (j, a) = self.vars[vi];
+        let old = self.ctrl[j];
+        let mut c = old.to_array();
+        c[a] += step;
+        self.ctrl[j] = Vec3::from_array(c);
+        let (lo, hi) = self.reach[j];
+        self.refresh(lo, hi);
+        (self.changed_objective(w, lo, hi), old)
+    }
+    /// Puts back the control point of variable `vi` that [`Window::nudge`] moved.
+    fn restore(&mut self, vi: usize, old: Vec3) {
+        let j = self.vars[vi].0;
+        self.ctrl[j] = old;
+        let (lo, hi) = self.reach[j];
+        self.refresh(lo, hi);
+    }
     /// Objective and its forward-difference gradient at the current control points.
     fn grad(&mut self, w: f64) -> (f64, Vec<f64>) {
         let f0 = self.objective(w);
         let mut g = Vec::with_capacity(self.vars.len());
         for vi in 0..self.vars.len() {
-            let (j, a) = self.vars[vi];
-            let (lo, hi) = self.reach[j];
-            let old = self.ctrl[j];
-            let mut c = old.to_array();
-            c[a] += FD_STEP_MM;
-            self.ctrl[j] = Vec3::from_array(c);
-            self.refresh(lo, hi);
-            g.push((self.objective(w) - f0) / FD_STEP_MM);
-            self.ctrl[j] = old;
-            self.refresh(lo, hi);
+            let (f, old) = self.nudge(vi, FD_STEP_MM, w);
+            g.push((f - f0) / FD_STEP_MM);
+            self.restore(vi, old);
         }
         (f0, g)
     }
+}
+
+/// `((d - r') / r')^2` beyond `r' = r * `[`PENALTY_BAND_SHARE`], zero inside.
+fn excess(d: f64, r: f64) -> f64 {
+    let r = r * PENALTY_BAND_SHARE;
+    ((d - r).max(0.0) / r).powi(2)
 }
 
 /// Distance from `q` to the segment `a b`.
@@ -470,21 +630,13 @@ fn pattern(win: &mut Window<'_>, w: f64) {
     let mut f = win.objective(w);
     for step in PATTERN_STEPS_MM {
         for vi in 0..win.vars.len() {
-            let (j, a) = win.vars[vi];
-            let (lo, hi) = win.reach[j];
-            let old = win.ctrl[j];
             for sgn in [1.0, -1.0] {
-                let mut c = old.to_array();
-                c[a] += sgn * step;
-                win.ctrl[j] = Vec3::from_array(c);
-                win.refresh(lo, hi);
-                let fnew = win.objective(w);
+                let (fnew, old) = win.nudge(vi, sgn * step, w);
                 if fnew < f {
-                    f = fnew;
+                    f = win.objective(w);
                     break;
                 }
-                win.ctrl[j] = old;
-                win.refresh(lo, hi);
+                win.restore(vi, old);
             }
         }
     }
@@ -501,7 +653,8 @@ fn fixed_count(c: EndCond) -> usize {
 /// The curve `c` (knot parameter = the run's chord length `u`, mm) reshaped for time at
 /// its slow spots within `r` (mm) of the run's polyline `pts` and within `tol_mm`
 /// measured (`accuracy`); `None` when no spot gained. Returns the curve, its measured
-/// deviation and the model time gained (s).
+/// deviation and the model time gained (s). The spots are shaped in parallel, each from
+/// `c` alone, their moved control points then merged (their supports are apart).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn time_shape(
     c: &Nurbs,
@@ -517,28 +670,44 @@ pub(crate) fn time_shape(
     let model = Model::new(o);
     let (v, x) = whole_profile(c, &model);
     let x_slow = (o.slow_share * o.limits.feed_mm_s).powi(2);
-    let mut cur = c.clone();
-    let mut gained = 0.0;
-    let mut dev = None;
-    for (spot, _) in spots(&v, &x, x_slow, o.free_half_mm) {
+    let apart = 2.0 * o.free_half_mm + 8.0 * o.dense_span_mm;
+    let found = spots(&v, &x, x_slow, apart);
+    if found.is_empty() {
+        return None;
+    }
+    let refined = found
+        .iter()
+        .fold(c.clone(), |c, &(spot, _)| dense_knots(&c, spot, o));
+    let band = Band {
+        pts,
+        u,
+        r,
+        tol_mm,
+        accuracy,
+    };
+    let shaped = crate::par::map(found.len(), 2, |i| {
+        let spot = found[i].0;
         let ends = (
             x_at(&v, &x, spot - o.window_mm),
             x_at(&v, &x, spot + o.window_mm),
         );
-        let band = Band {
-            pts,
-            u,
-            r,
-            tol_mm,
-            accuracy,
-        };
-        if let Some((n, d, g)) = shape_spot(&cur, spot, ends, &band, start, end, o, model) {
-            cur = n;
-            gained += g;
-            dev = Some(d);
+        let win = Window::new(&refined, spot, ends, band, (start, end), o, model)?;
+        shape_spot(win, &refined, o)
+    });
+    let mut ctrl = refined.ctrl().to_vec();
+    let mut gained = 0.0;
+    for (moved, gain) in shaped.into_iter().flatten() {
+        for (j, p) in moved {
+            ctrl[j] = p;
         }
+        gained += gain;
     }
-    Some((cur, dev?, gained))
+    if gained <= 0.0 {
+        return None;
+    }
+    let curve = Nurbs::bspline(3, ctrl, refined.knots().to_vec())?;
+    let dev = measured(&curve, &band)?;
+    Some((curve, dev, gained))
 }
 
 /// The profile's `x` at parameter `s` (nearest sample, clamped to the curve).
@@ -558,30 +727,19 @@ struct Band<'a> {
     accuracy: f64,
 }
 
-/// One spot, entering and leaving the modelled window at `ends` (`x`): see the module
-/// doc, steps 3 to 5.
-#[allow(clippy::too_many_arguments)]
-fn shape_spot(
-    c: &Nurbs,
-    spot: f64,
-    ends: (f64, f64),
-    band: &Band<'_>,
-    start: EndCond,
-    end: EndCond,
-    o: &TimeShapeOptions,
-    model: Model,
-) -> Option<(Nurbs, f64, f64)> {
-    let Band {
-        pts,
-        u,
-        r,
-        tol_mm,
-        accuracy,
-    } = *band;
-    let (da, db) = c.domain();
+/// The deviation of `c` from the band's polyline, measured; `None` unless within the
+/// tolerance less the accuracy.
+fn measured(c: &Nurbs, band: &Band<'_>) -> Option<f64> {
+    let seg = Segment::Nurbs(Box::new(c.clone()));
+    let dm = polyline_deviation(&[(&seg, 0)], band.pts, band.accuracy).max_mm();
+    (dm.is_finite() && dm + band.accuracy <= band.tol_mm).then_some(dm)
+}
+
+/// `c` with knots inserted so that no span within `free_half` of `spot` is longer than
+/// `dense_span` (the same curve).
+fn dense_knots(c: &Nurbs, spot: f64, o: &TimeShapeOptions) -> Nurbs {
     let (fa, fb) = (spot - o.free_half_mm, spot + o.free_half_mm);
-    // Knots every dense_span in the free part.
-    let mut c = c.clone();
+    let mut out = c.clone();
     let mut k = c.knots().to_vec();
     k.dedup();
     for w in k.windows(2) {
@@ -596,80 +754,25 @@ fn shape_spot(
         for i in 1..n {
             let t = w[0] + (w[1] - w[0]) * i as f64 / n as f64;
             if t > a && t < b {
-                c = c.insert_knot(t, 1);
+                out = out.insert_knot(t, 1);
             }
         }
     }
-    let knots = c.knots().to_vec();
-    let ctrl = c.ctrl().to_vec();
-    let m = ctrl.len();
-    let (f0, f1) = (fixed_count(start), m - fixed_count(end));
-    let free: Vec<usize> = (f0..f1)
-        .filter(|&j| {
-            let g = (knots[j + 1] + knots[j + 2] + knots[j + 3]) / 3.0;
-            g >= fa && g <= fb
-        })
-        .collect();
-    if free.is_empty() {
-        return None;
-    }
-    let axes: Vec<usize> = (0..3)
-        .filter(|&a| pts.iter().any(|p| (p[a] - pts[0][a]).abs() > 1e-12))
-        .collect();
-    let (wa, wb) = ((spot - o.window_mm).max(da), (spot + o.window_mm).min(db));
-    let n = (((wb - wa) / o.sample_mm).ceil() as usize).max(2);
-    let params: Vec<f64> = (0..=n)
-        .map(|i| wa + (wb - wa) * i as f64 / n as f64)
-        .collect();
-    let basis: Vec<(usize, [[f64; 4]; 3])> = params
-        .iter()
-        .map(|&p| {
-            let s = c.find_span(p);
-            let d = c.ders_basis(s, p, 2);
-            let b = [0, 1, 2].map(|m| [d[m][0], d[m][1], d[m][2], d[m][3]]);
-            (s - 3, b)
-        })
-        .collect();
-    let range = |a: f64, b: f64| {
-        (
-            params.partition_point(|&p| p < a),
-            params.partition_point(|&p| p <= b),
-        )
+    out
+}
+
+/// One spot's problem `win` on the (refined) curve `c` solved: the moved control points
+/// and the model time gained, when the reshaped curve measures within the tolerance (see
+/// the module doc, steps 4 and 5).
+fn shape_spot(
+    mut win: Window<'_>,
+    c: &Nurbs,
+    o: &TimeShapeOptions,
+) -> Option<(Vec<(usize, Vec3)>, f64)> {
+    let t0 = {
+        win.objective(0.0);
+        win.cache.time
     };
-    let reach: Vec<(usize, usize)> = (0..m).map(|j| range(knots[j], knots[j + 4])).collect();
-    let live = (reach[free[0]].0, reach[*free.last()?].1);
-    let (la, lb) = (params[live.0.min(n)], params[(live.1.max(1) - 1).min(n)]);
-    let verts = (0..pts.len())
-        .filter(|&i| u[i] >= la - o.dense_span_mm && u[i] <= lb + o.dense_span_mm)
-        .map(|i| {
-            let (lo, hi) = range(u[i] - VERTEX_REACH_MM, u[i] + VERTEX_REACH_MM);
-            (i, lo, hi)
-        })
-        .filter(|v| v.2 > v.1)
-        .collect();
-    let mut win = Window {
-        model,
-        ctrl,
-        vars: free
-            .iter()
-            .flat_map(|&j| axes.iter().map(move |&a| (j, a)))
-            .collect(),
-        basis,
-        params,
-        reach,
-        live,
-        x_in: ends.0,
-        x_out: ends.1,
-        pts,
-        u,
-        verts,
-        r,
-        geo: vec![Geo::default(); n + 1],
-        scratch: Vec::new(),
-        ds: vec![0.0; n],
-    };
-    win.refresh(0, n + 1);
-    let t0 = win.time();
     for w in PENALTY_WEIGHTS {
         lbfgs(&mut win, w, o.max_iters);
     }
@@ -678,23 +781,116 @@ fn shape_spot(
         pattern(&mut win, w_last);
         lbfgs(&mut win, w_last, o.max_iters);
     }
-    let t1 = win.time();
-    let gain = t0 - t1;
+    win.objective(0.0);
+    let gain = t0 - win.cache.time;
     if gain.is_nan() || gain < MIN_GAIN_S {
         return None;
     }
-    let shaped = Nurbs::bspline(3, win.ctrl, knots)?;
-    let lines: Vec<Segment> = pts
-        .windows(2)
-        .map(|s| Segment::Line(Line::new(s[0], s[1])))
-        .collect();
-    let prog: Vec<(&Segment, u32)> = lines.iter().map(|s| (s, 0)).collect();
-    let seg = Segment::Nurbs(Box::new(shaped));
-    let dm = deviation_segments(&[(&seg, 0)], &prog, accuracy).max_mm();
-    let Segment::Nurbs(shaped) = seg else {
-        unreachable!("built as a NURBS above")
-    };
-    (dm.is_finite() && dm + accuracy <= tol_mm).then_some((*shaped, dm, gain))
+    let moved: Vec<(usize, Vec3)> = win.free().map(|j| (j, win.ctrl[j])).collect();
+    let mut ctrl = c.ctrl().to_vec();
+    for &(j, p) in &moved {
+        ctrl[j] = p;
+    }
+    let shaped = Nurbs::bspline(3, ctrl, c.knots().to_vec())?;
+    measured(&shaped, &win.band)?;
+    Some((moved, gain))
+}
+
+impl<'a> Window<'a> {
+    /// The problem of `spot` on `c`, entering and leaving the modelled window at `ends`
+    /// (`x`), the run's end conditions `conds` (module doc, step 3); `None` when no
+    /// control point is free there.
+    fn new(
+        c: &Nurbs,
+        spot: f64,
+        ends: (f64, f64),
+        band: Band<'a>,
+        conds: (EndCond, EndCond),
+        o: &TimeShapeOptions,
+        model: Model,
+    ) -> Option<Window<'a>> {
+        let (da, db) = c.domain();
+        let (fa, fb) = (spot - o.free_half_mm, spot + o.free_half_mm);
+        let knots = c.knots();
+        let m = c.ctrl().len();
+        let (f0, f1) = (fixed_count(conds.0), m - fixed_count(conds.1));
+        let free: Vec<usize> = (f0..f1)
+            .filter(|&j| {
+                let g = (knots[j + 1] + knots[j + 2] + knots[j + 3]) / 3.0;
+                g >= fa && g <= fb
+            })
+            .collect();
+        let pts = band.pts;
+        let axes: Vec<usize> = (0..3)
+            .filter(|&a| pts.iter().any(|p| (p[a] - pts[0][a]).abs() > 1e-12))
+            .collect();
+        let (wa, wb) = ((spot - o.window_mm).max(da), (spot + o.window_mm).min(db));
+        let n = (((wb - wa) / o.sample_mm).ceil() as usize).max(2);
+        let params: Vec<f64> = (0..=n)
+            .map(|i| wa + (wb - wa) * i as f64 / n as f64)
+            .collect();
+        let basis = params
+            .iter()
+            .map(|&p| {
+                let s = c.find_span(p);
+                let d = c.ders_basis(s, p, 2);
+                (
+                    s - 3,
+                    [0, 1, 2].map(|m| [d[m][0], d[m][1], d[m][2], d[m][3]]),
+                )
+            })
+            .collect();
+        let range = |a: f64, b: f64| {
+            (
+                params.partition_point(|&p| p < a),
+                params.partition_point(|&p| p <= b),
+            )
+        };
+        let reach: Vec<(usize, usize)> = (0..m).map(|j| range(knots[j], knots[j + 4])).collect();
+        let live = (reach[*free.first()?].0, reach[*free.last()?].1);
+        let (la, lb) = (params[live.0.min(n)], params[(live.1.max(1) - 1).min(n)]);
+        let verts = (0..pts.len())
+            .filter(|&i| {
+                let ui = band.u[i];
+                ui >= la - o.dense_span_mm && ui <= lb + o.dense_span_mm
+            })
+            .map(|i| {
+                let (lo, hi) = range(band.u[i] - VERTEX_REACH_MM, band.u[i] + VERTEX_REACH_MM);
+                (i, lo, hi)
+            })
+            .filter(|v| v.2 > v.1)
+            .collect();
+        let mut win = Window {
+            model,
+            ctrl: c.ctrl().to_vec(),
+            vars: free
+                .iter()
+                .flat_map(|&j| axes.iter().map(move |&a| (j, a)))
+                .collect(),
+            basis,
+            params,
+            reach,
+            live,
+            x_in: ends.0,
+            x_out: ends.1,
+            band,
+            verts,
+            geo: vec![Geo::default(); n + 1],
+            ds: vec![0.0; n],
+            cache: Cache::default(),
+        };
+        win.refresh(0, n + 1);
+        Some(win)
+    }
+    /// The free control points, in order.
+    fn free(&self) -> impl Iterator<Item = usize> + '_ {
+        let mut last = usize::MAX;
+        self.vars.iter().filter_map(move |&(j, _)| {
+            let new = j != last;
+            last = j;
+            new.then_some(j)
+        })
+    }
 }
 
 #[cfg(test)]
@@ -794,5 +990,57 @@ mod tests {
         // Same ends, same end tangents: the shaping moved only the spot's control points.
         assert_eq!(plain.curve.start(), shaped.curve.start());
         assert_eq!(plain.curve.end(), shaped.curve.end());
+    }
+
+    #[test]
+    fn incremental_objective_equals_the_full_one() {
+        let (pts, d0, d2) = near_cusp();
+        let tol = 0.01;
+        let fit = band_fit(
+            &pts,
+            EndCond::Line(d0),
+            EndCond::Line(d2),
+            tol,
+            tol * 0.02,
+            &BandFitOptions::default(),
+        )
+        .expect("fits");
+        // Back to the chord-length parameter, as band_fit hands it to the shaping.
+        let mut u = vec![0.0];
+        for w in pts.windows(2) {
+            u.push(u[u.len() - 1] + w[0].dist(w[1]));
+        }
+        let len = u[u.len() - 1];
+        let c = &fit.curve;
+        let knots = c.knots().iter().map(|k| k * len).collect();
+        let c = Nurbs::bspline(3, c.ctrl().to_vec(), knots).unwrap();
+        let o = limits();
+        let spot = u[21] - 0.1;
+        let c = dense_knots(&c, spot, &o);
+        let band = Band {
+            pts: &pts,
+            u: &u,
+            r: 0.0095,
+            tol_mm: tol,
+            accuracy: tol * 0.02,
+        };
+        let conds = (EndCond::Line(d0), EndCond::Line(d2));
+        let mut win = Window::new(&c, spot, (2500.0, 2500.0), band, conds, &o, Model::new(&o))
+            .expect("free points");
+        assert!(win.vars.len() > 20);
+        let mut moved = 0;
+        for (vi, step) in [(0, 1e-3), (5, -4e-3), (11, 6e-3), (17, 2e-3), (23, -1e-3)] {
+            let w = 1e3;
+            let before = win.objective(w);
+            let (inc, old) = win.nudge(vi, step, w);
+            let full = win.objective(w);
+            assert!((inc - full).abs() < 1e-12, "var {vi}: {inc} {full}");
+            moved += usize::from((full - before).abs() > 1e-9);
+            win.restore(vi, old);
+            // A move that stays kept, so the next one starts elsewhere.
+            win.nudge(vi, step * 0.5, w);
+        }
+        // The moves changed the objective (time or penalty), not only the bookkeeping.
+        assert!(moved >= 4, "{moved}");
     }
 }

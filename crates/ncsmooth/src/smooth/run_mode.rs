@@ -41,14 +41,14 @@
 //! the paper.
 
 use super::arc_spline::{arc_spline, MIN_ARC_MM};
-use super::band_fit::{band_fit, BandFit, EndCond};
+use super::band_fit::{band_fit, polyline_deviation, BandFit, EndCond};
 use super::screen::{screen, Run};
 use super::{assemble, Chain, ChainPos, OutPiece, SmoothOptions, SmoothReport};
 use crate::geom::{
     trig_basis, trig_basis_deriv, CubicBez, Line, Nurbs, ParamCurve, Segment, TrigSpline, Vec3,
 };
 use crate::path::Move;
-use crate::verify::{deviation_segments, DEGENERATE_MM};
+use crate::verify::DEGENERATE_MM;
 
 /// Share of the tolerance used by the accuracy of the fits' measurements (a fit is
 /// accepted when measured + accuracy <= tol; the band's dense check holds the curve to
@@ -340,14 +340,8 @@ fn holds_band(
     tol: f64,
     accuracy: f64,
 ) -> Option<Vec<(Segment, f64, f64)>> {
-    let lines: Vec<Segment> = f
-        .pts
-        .windows(2)
-        .map(|w| Segment::Line(Line::new(w[0], w[1])))
-        .collect();
-    let prog: Vec<(&Segment, u32)> = lines.iter().map(|s| (s, 0)).collect();
     let refs: Vec<(&Segment, u32)> = pieces.iter().map(|s| (&s.0, 0)).collect();
-    let dev = deviation_segments(&refs, &prog, accuracy).max_mm();
+    let dev = polyline_deviation(&refs, &f.pts, accuracy).max_mm();
     (dev.is_finite() && dev + accuracy <= tol).then_some(pieces)
 }
 
