@@ -43,8 +43,10 @@
 //!    control point: only its samples are re-evaluated, and the two passes are redone only
 //!    until they meet the cached profile again.
 //! 5. **Acceptance.** The reshaped curve is measured exactly against the run's polyline
-//!    ([`crate::verify::deviation_segments`]); a window is kept only when the deviation is within the
-//!    tolerance and the model time fell by at least [`MIN_GAIN_S`].
+//!    ([`crate::verify::deviation_segments`]); a window is kept only when the deviation
+//!    is within the tolerance, the model time fell by at least [`MIN_GAIN_S`], and the
+//!    reshaped part neither turns much more than the fit did ([`MAX_EXTRA_TURN_RAD`]: no
+//!    loop) nor slows its parameter to a cusp ([`MIN_SPEED_SHARE`]).
 //!
 //! ## Limits
 //! The optimisation is local (a start at the band fit, a fixed knot layout); the model
@@ -135,6 +137,22 @@ const VERTEX_REACH_MM: f64 = 0.5;
 const FLAT_S: f64 = 1e-10;
 /// ... and this many flat iterations in a row end a stage.
 const FLAT_PATIENCE: usize = 5;
+/// How much more (rad) the reshaped part of a curve may turn than the fit did there. An
+/// apex entered wide turns out first and back later (butterfly_1000: up to 40 degrees
+/// more); a loop adds a whole turn and is invisible to the band (camotics_vcarve, whose
+/// quantised points give knot spans of a tenth of a micrometre: 390 and 715 degrees more
+/// inside spans shorter than a sample step, before those spans got samples of their own;
+/// written as lines, a loop is a run of reversing blocks).
+pub const MAX_EXTRA_TURN_RAD: f64 = std::f64::consts::FRAC_PI_2;
+/// The least parametric speed `|C'|` of the reshaped part, as a share of the fit's there
+/// (about 1 with the chord-length parameter, 0.44-0.98 at butterfly_1000's spots, which
+/// keep 0.85 of it): a cusp, where it vanishes, is a reversal, the limit of a tight apex
+/// that the model takes for a stop and a controller for a corner.
+pub const MIN_SPEED_SHARE: f64 = 0.5;
+/// Samples inside a knot span shorter than two sample steps.
+const SPAN_SAMPLES_SHORT: usize = 3;
+/// Tangent samples per knot span of the turn check.
+const TURN_SAMPLES_PER_SPAN: usize = 16;
 /// The steps (mm) of the coordinate sweeps, in turn.
 const PATTERN_STEPS_MM: [f64; 4] = [1e-3, 3e-4, 1e-4, 3e-5];
 /// L-BFGS memory.
@@ -793,7 +811,64 @@ fn shape_spot(
     }
     let shaped = Nurbs::bspline(3, ctrl, c.knots().to_vec())?;
     measured(&shaped, &win.band)?;
-    Some((moved, gain))
+    let knots = c.knots();
+    let (first, last) = (win.vars.first()?.0, win.vars.last()?.0);
+    let (a, b) = (knots[first], knots[last + 4]);
+    let (turn0, speed0) = tangent_check(c, a, b);
+    let (turn1, speed1) = tangent_check(&shaped, a, b);
+    (turn1 <= turn0 + MAX_EXTRA_TURN_RAD && speed1 >= MIN_SPEED_SHARE * speed0)
+        .then_some((moved, gain))
+}
+
+/// The sample parameters of a window `[a, b]`: every `step`, and also
+/// [`SPAN_SAMPLES_SHORT`] inside every knot span shorter than two steps (quantised
+/// programs have spans of a tenth of a micrometre, inside which the optimiser could
+/// otherwise tie a loop that no sample sees).
+fn window_params(knots: &[f64], a: f64, b: f64, step: f64) -> Vec<f64> {
+    let n = (((b - a) / step).ceil() as usize).max(2);
+    let mut v: Vec<f64> = (0..=n).map(|i| a + (b - a) * i as f64 / n as f64).collect();
+    for w in knots.windows(2) {
+        let (lo, hi) = (w[0].max(a), w[1].min(b));
+        if hi > lo && w[1] - w[0] < 2.0 * step {
+            let m = SPAN_SAMPLES_SHORT + 1;
+            v.extend((0..=m).map(|i| lo + (hi - lo) * i as f64 / m as f64));
+        }
+    }
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// The total turn (rad) of the unit tangent of `c` over `[a, b]` and the least
+/// parametric speed `|C'|` there, on [`TURN_SAMPLES_PER_SPAN`] samples per knot span
+/// (so that no span is skipped however short).
+fn tangent_check(c: &Nurbs, a: f64, b: f64) -> (f64, f64) {
+    let mut k: Vec<f64> = c
+        .knots()
+        .iter()
+        .copied()
+        .filter(|&t| t > a && t < b)
+        .collect();
+    k.insert(0, a);
+    k.push(b);
+    k.dedup();
+    let mut prev: Option<Vec3> = None;
+    let (mut turn, mut speed) = (0.0, f64::INFINITY);
+    for w in k.windows(2) {
+        for i in 0..=TURN_SAMPLES_PER_SPAN {
+            let t = w[0] + (w[1] - w[0]) * i as f64 / TURN_SAMPLES_PER_SPAN as f64;
+            let d = c.ders_at_param(t)[1];
+            speed = speed.min(d.norm());
+            let Some(d) = d.normalized() else {
+                return (f64::INFINITY, 0.0);
+            };
+            if let Some(p) = prev {
+                turn += p.angle_to(d);
+            }
+            prev = Some(d);
+        }
+    }
+    (turn, speed)
 }
 
 impl<'a> Window<'a> {
@@ -825,10 +900,8 @@ impl<'a> Window<'a> {
             .filter(|&a| pts.iter().any(|p| (p[a] - pts[0][a]).abs() > 1e-12))
             .collect();
         let (wa, wb) = ((spot - o.window_mm).max(da), (spot + o.window_mm).min(db));
-        let n = (((wb - wa) / o.sample_mm).ceil() as usize).max(2);
-        let params: Vec<f64> = (0..=n)
-            .map(|i| wa + (wb - wa) * i as f64 / n as f64)
-            .collect();
+        let params = window_params(knots, wa, wb, o.sample_mm);
+        let n = params.len() - 1;
         let basis = params
             .iter()
             .map(|&p| {
@@ -1042,5 +1115,31 @@ mod tests {
         }
         // The moves changed the objective (time or penalty), not only the bookkeeping.
         assert!(moved >= 4, "{moved}");
+    }
+
+    #[test]
+    fn a_loop_or_a_cusp_fails_the_tangent_check_and_short_spans_are_sampled() {
+        let bez = |p: [(f64, f64); 4]| {
+            let ctrl = p.iter().map(|&(x, y)| Vec3::new(x, y, 0.0)).collect();
+            Nurbs::bspline(3, ctrl, vec![0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0]).unwrap()
+        };
+        let arch = bez([(0.0, 0.0), (0.7, 1.0), (1.3, 1.0), (2.0, 0.0)]);
+        let looped = bez([(0.0, 0.0), (3.0, 1.0), (-1.0, 1.0), (2.0, 0.0)]);
+        let cusp = bez([(0.0, 0.0), (2.0, 1.0), (0.0, 1.0), (2.0, 0.0)]);
+        let (t0, s0) = tangent_check(&arch, 0.0, 1.0);
+        let (t1, _) = tangent_check(&looped, 0.0, 1.0);
+        let (t2, s2) = tangent_check(&cusp, 0.0, 1.0);
+        assert!(t0 < 2.0 && s0 > 1.0, "{t0} {s0}");
+        assert!(t1 > t0 + MAX_EXTRA_TURN_RAD, "loop: {t1} against {t0}");
+        // The cusp's speed vanishes at t = 1/2 (or nearly, between samples).
+        assert!(
+            t2 > t0 + MAX_EXTRA_TURN_RAD || s2 < MIN_SPEED_SHARE * s0,
+            "{t2} {s2}"
+        );
+        // A span of 0.1 um inside a window sampled every 2 um gets samples of its own.
+        let knots = [0.0, 0.0, 0.0, 0.0, 1.0, 1.0 + 1e-7, 2.0, 2.0, 2.0, 2.0];
+        let v = window_params(&knots, 0.5, 1.5, 0.002);
+        let inside = v.iter().filter(|&&t| t > 1.0 && t < 1.0 + 1e-7).count();
+        assert_eq!(inside, SPAN_SAMPLES_SHORT);
     }
 }
