@@ -791,10 +791,7 @@ pub fn band_fit(
     let (mut curve, mut dev, iterations) =
         fit_on(pts, &u, breaks, start, end, tol_mm, accuracy, opts)?;
     if let Some(ts) = &opts.time_shape {
-        let r = ts.band_share * tol_mm;
-        if let Some((c, d, _gain)) =
-            time_shape(&curve, pts, &u, start, end, r, tol_mm, accuracy, ts)
-        {
+        if let Some((c, d, _gain)) = time_shape(&curve, pts, &u, start, end, tol_mm, accuracy, ts) {
             curve = c;
             dev = d;
         }

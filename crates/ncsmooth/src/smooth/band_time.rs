@@ -57,7 +57,7 @@
 //! (`--time-shape` on the command line).
 
 use super::band_fit::{polyline_deviation, EndCond};
-use crate::geom::{Nurbs, Segment, Vec3};
+use crate::geom::{Line, Nurbs, Segment, Vec3};
 
 /// The machine limits the shaping minimises time for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -221,6 +221,18 @@ impl Model {
         }
         (lo.min(0.0), hi.max(0.0))
     }
+    /// The backward pass: `x` below `cap` at a sample `ds` before one at `next` on
+    /// `g_next`, from which the machine can still slow down to it.
+    fn back_step(&self, g_next: &Geo, ds: f64, cap: f64, next: f64) -> f64 {
+        let (lo, _) = self.u_range(g_next, next);
+        cap.min(next - 2.0 * ds * lo)
+    }
+    /// The forward pass: `x` below the backward limit `xb` at a sample `ds` after one at
+    /// `prev` on `g_prev`, as far as the machine can speed up from it.
+    fn fwd_step(&self, g_prev: &Geo, ds: f64, xb: f64, prev: f64) -> f64 {
+        let (_, hi) = self.u_range(g_prev, prev);
+        xb.min(prev + 2.0 * ds * hi)
+    }
     /// The time (s) along samples `g` with chord lengths `ds`, entering at `x0` and
     /// leaving at `x1` (at most); `x` is scratch.
     #[cfg(test)]
@@ -228,7 +240,7 @@ impl Model {
         self.profile(g, ds, x0, x1, x);
         ds.iter()
             .zip(x.windows(2))
-            .map(|(d, w)| 2.0 * d / (w[0].sqrt() + w[1].sqrt()).max(1e-9))
+            .map(|(d, w)| dt(*d, w[0], w[1]))
             .sum()
     }
     /// The speed profile (`x = v^2` per sample) into `x`.
@@ -239,12 +251,10 @@ impl Model {
         x[0] = x[0].min(x0);
         x[n - 1] = x[n - 1].min(x1);
         for k in (0..n - 1).rev() {
-            let (lo, _) = self.u_range(&g[k + 1], x[k + 1]);
-            x[k] = x[k].min(x[k + 1] - 2.0 * ds[k] * lo);
+            x[k] = self.back_step(&g[k + 1], ds[k], x[k], x[k + 1]);
         }
-        for k in 0..n - 1 {
-            let (_, hi) = self.u_range(&g[k], x[k]);
-            x[k + 1] = x[k + 1].min(x[k] + 2.0 * ds[k] * hi);
+        for k in 1..n {
+            x[k] = self.fwd_step(&g[k - 1], ds[k - 1], x[k], x[k - 1]);
         }
     }
 }
@@ -264,9 +274,9 @@ fn whole_profile(c: &Nurbs, m: &Model) -> (Vec<f64>, Vec<f64>) {
     (v, x)
 }
 
-/// The spots: parameters of local speed minima below `x_slow`, slowest first, at least
-/// `2 free_half` apart.
-fn spots(v: &[f64], x: &[f64], x_slow: f64, free_half: f64) -> Vec<(f64, f64)> {
+/// The spots: parameters of local speed minima below `x_slow`, slowest first, more than
+/// `min_gap` apart (a minimum closer to a slower one is left to that one's shaping).
+fn spots(v: &[f64], x: &[f64], x_slow: f64, min_gap: f64) -> Vec<(f64, f64)> {
     let mut m: Vec<(f64, f64)> = (1..x.len() - 1)
         .filter(|&i| x[i] < x_slow && x[i] <= x[i - 1] && x[i] < x[i + 1])
         .map(|i| (v[i], x[i]))
@@ -274,7 +284,7 @@ fn spots(v: &[f64], x: &[f64], x_slow: f64, free_half: f64) -> Vec<(f64, f64)> {
     m.sort_by(|a, b| a.1.total_cmp(&b.1));
     let mut out: Vec<(f64, f64)> = Vec::new();
     for s in m {
-        if out.iter().all(|o| (o.0 - s.0).abs() > 2.0 * free_half) {
+        if out.iter().all(|o| (o.0 - s.0).abs() > min_gap) {
             out.push(s);
         }
     }
@@ -363,8 +373,9 @@ impl<'a> Window<'a> {
         let c = u.partition_point(|&w| w <= self.params[k]).max(1) - 1;
         let (lo, hi) = (c.saturating_sub(2), (c + 3).min(pts.len() - 1));
         let d = (lo..hi)
-            .map(|j| seg_dist(q, pts[j], pts[j + 1]))
-            .fold(f64::INFINITY, f64::min);
+            .map(|j| Line::new(pts[j], pts[j + 1]).dist_sq(q))
+            .fold(f64::INFINITY, f64::min)
+            .sqrt();
         excess(d, r)
     }
     /// The penalty term of window vertex `vi` (its distance to the sampled curve).
@@ -406,13 +417,13 @@ impl<'a> Window<'a> {
     }
     /// The backward pass at sample `k` below its cap, from `next` at `k + 1`.
     fn back_step(&self, k: usize, cap: f64, next: f64) -> f64 {
-        let (lo, _) = self.model.u_range(&self.geo[k + 1], next);
-        cap.min(next - 2.0 * self.ds[k] * lo)
+        self.model
+            .back_step(&self.geo[k + 1], self.ds[k], cap, next)
     }
     /// The forward pass at sample `k` below its backward limit, from `prev` at `k - 1`.
     fn fwd_step(&self, k: usize, xb: f64, prev: f64) -> f64 {
-        let (_, hi) = self.model.u_range(&self.geo[k - 1], prev);
-        xb.min(prev + 2.0 * self.ds[k - 1] * hi)
+        self.model
+            .fwd_step(&self.geo[k - 1], self.ds[k - 1], xb, prev)
     }
     /// The objective at weight `w` after the geometry of samples `lo..hi` changed since
     /// the last full evaluation (the cache), without updating it: the passes are redone
@@ -544,18 +555,6 @@ fn excess(d: f64, r: f64) -> f64 {
     ((d - r).max(0.0) / r).powi(2)
 }
 
-/// Distance from `q` to the segment `a b`.
-fn seg_dist(q: Vec3, a: Vec3, b: Vec3) -> f64 {
-    let d = b - a;
-    let l2 = d.norm_sq();
-    let t = if l2 > 0.0 {
-        ((q - a).dot(d) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    q.dist(a + d * t)
-}
-
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -669,8 +668,8 @@ fn fixed_count(c: EndCond) -> usize {
 }
 
 /// The curve `c` (knot parameter = the run's chord length `u`, mm) reshaped for time at
-/// its slow spots within `r` (mm) of the run's polyline `pts` and within `tol_mm`
-/// measured (`accuracy`); `None` when no spot gained. Returns the curve, its measured
+/// its slow spots within `o.band_share * tol_mm` of the run's polyline `pts` and within
+/// `tol_mm` measured (`accuracy`); `None` when no spot gained. Returns the curve, its measured
 /// deviation and the model time gained (s). The spots are shaped in parallel, each from
 /// `c` alone, their moved control points then merged (their supports are apart).
 #[allow(clippy::too_many_arguments)]
@@ -680,7 +679,6 @@ pub(crate) fn time_shape(
     u: &[f64],
     start: EndCond,
     end: EndCond,
-    r: f64,
     tol_mm: f64,
     accuracy: f64,
     o: &TimeShapeOptions,
@@ -688,8 +686,11 @@ pub(crate) fn time_shape(
     let model = Model::new(o);
     let (v, x) = whole_profile(c, &model);
     let x_slow = (o.slow_share * o.limits.feed_mm_s).powi(2);
-    let apart = 2.0 * o.free_half_mm + 8.0 * o.dense_span_mm;
-    let found = spots(&v, &x, x_slow, apart);
+    // Twice the distance that keeps two spots' moved control points (their supports
+    // reaching 4 dense spans beyond the free part) apart: the spacing the figures in
+    // this module's docs were measured with.
+    let min_gap = 2.0 * (2.0 * o.free_half_mm + 8.0 * o.dense_span_mm);
+    let found = spots(&v, &x, x_slow, min_gap);
     if found.is_empty() {
         return None;
     }
@@ -699,7 +700,7 @@ pub(crate) fn time_shape(
     let band = Band {
         pts,
         u,
-        r,
+        r: o.band_share * tol_mm,
         tol_mm,
         accuracy,
     };
