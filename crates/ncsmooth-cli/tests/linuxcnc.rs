@@ -16,7 +16,8 @@ use std::process::Command;
 
 /// Tolerance of the smoothing methods (mm).
 const TOL_MM: f64 = 0.01;
-/// What canon_check allows the methods: tol plus the default flattening chord (tol / 10).
+/// What canon_check allows the methods: tol and a tenth of it as slack (the written path,
+/// as the interpreter reads it before any blending, is within tol).
 const CHECK_TOL_MM: f64 = TOL_MM * 1.1;
 /// What it allows `none`, which copies the program.
 const NONE_TOL_MM: f64 = 1e-4;

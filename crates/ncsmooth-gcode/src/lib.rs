@@ -52,6 +52,7 @@ pub mod canon;
 pub mod chain;
 pub mod dialect;
 pub mod error;
+pub mod executed;
 pub mod expr;
 pub mod interp;
 pub mod lexer;

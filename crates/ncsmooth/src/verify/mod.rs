@@ -2,11 +2,14 @@
 //!
 //! * [`deviation`]: the two-sided distance between an output path and the programmed one
 //!   (the tolerance contract), exact within a stated accuracy, O(n log n).
+//! * [`PathIndex`]: nearest distance from points to a path, for measurements built
+//!   elsewhere.
 //! * [`continuity`]: position, tangent and curvature continuity at every joint.
 
 mod bvh;
 mod continuity;
 mod deviation;
+mod nearest;
 mod prim;
 
 pub use continuity::{
@@ -14,3 +17,4 @@ pub use continuity::{
     CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,
 };
 pub use deviation::{deviation, deviation_segments, deviation_with_vertex_distances, Deviation};
+pub use nearest::PathIndex;
