@@ -39,12 +39,13 @@ use std::time::Instant;
 
 /// Share of the tolerance used as the default flattening chord error.
 pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
-/// Share of the tolerance used as the default chord for LinuxCNC: longer G1 blocks that its
-/// blending joins at higher speed, for a little less curve tolerance. LinuxCNC 2.9 at
-/// 50 mm/s and 500 mm/s^2, the best method of each file, 0.1 / 0.15 tol: butterfly_1000
-/// nurbs 9.325 / 9.275 s, crown bspline 7.468 / 7.458, cncjs_jsdc nurbs 18.167 / 18.145,
-/// camotics_vcarve trig 20.801 / 20.725. Not monotonic: 0.2 tol gave 9.401, 7.450,
-/// 18.261 and 20.743.
+/// Share of the tolerance used as the default chord for LinuxCNC: long G1 blocks that its
+/// blending joins at speed, with [`BLEND_SHARE`] (the model of the executed path lets the
+/// two share the tolerance, [`BudgetRule::Executed`]). Measured with `P` tol / 10 paid in
+/// full (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, best method of each file), 0.1 / 0.15 / 0.2
+/// tol: butterfly_1000 9.325 / 9.275 / 9.401 s, crown 7.468 / 7.458 / 7.450, cncjs_jsdc
+/// 18.167 / 18.145 / 18.261, camotics_vcarve 20.801 / 20.725 / 20.743; with `P` 0.2 tol
+/// under the model, 0.2 tol: 9.250, 7.439, 18.103 and 20.559 (see [`BLEND_SHARE`]).
 pub const LINUXCNC_CHORD_SHARE: f64 = 0.2;
 /// Share of the tolerance used as the default chord for a stepper dialect
 /// ([`Dialect::block_floor_mm`]): no blending takes a share there, and grbl's 15-block
