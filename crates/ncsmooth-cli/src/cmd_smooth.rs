@@ -8,7 +8,7 @@
 //!
 //! The written file honours `--tol`: curves that G-code cannot carry are built to
 //! `tol - chord - rounding - blend` and then flattened into G1 lines within `chord` (default
-//! `0.2 tol` for LinuxCNC, `tol / 10` for a generic controller, `0.3 tol` for a stepper
+//! `0.4 tol` for LinuxCNC, `tol / 10` for a generic controller, `0.3 tol` for a stepper
 //! dialect); `rounding` is the most a point moves when its coordinates are printed with
 //! `--decimals` digits (one more in inch programs,
 //! [`ncsmooth_gcode::rewrite::rounding_mm_for`]). What is measured is the written text
@@ -44,9 +44,9 @@ pub const DEFAULT_CHORD_SHARE: f64 = 0.1;
 /// two share the tolerance, [`BudgetRule::Executed`]). Measured with `P` tol / 10 paid in
 /// full (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, best method of each file), 0.1 / 0.15 / 0.2
 /// tol: butterfly_1000 9.325 / 9.275 / 9.401 s, crown 7.468 / 7.458 / 7.450, cncjs_jsdc
-/// 18.167 / 18.145 / 18.261, camotics_vcarve 20.801 / 20.725 / 20.743; with `P` 0.2 tol
-/// under the model, 0.2 tol: 9.250, 7.439, 18.103 and 20.559 (see [`BLEND_SHARE`]).
-pub const LINUXCNC_CHORD_SHARE: f64 = 0.2;
+/// 18.167 / 18.145 / 18.261, camotics_vcarve 20.801 / 20.725 / 20.743; with `P` equal to
+/// the chord under the model, see [`BLEND_SHARE`].
+pub const LINUXCNC_CHORD_SHARE: f64 = 0.4;
 /// Share of the tolerance used as the default chord for a stepper dialect
 /// ([`Dialect::block_floor_mm`]): no blending takes a share there, and grbl's 15-block
 /// look-ahead covers more of the path with the longer blocks (butterfly_1000 on grbl
@@ -72,7 +72,15 @@ pub const VERBATIM_BLEND_SHARE: f64 = 0.95;
 /// 0.15 / 0.1 tol (paid both) against 0.2 / 0.2 tol (modelled): butterfly_1000 nurbs
 /// 9.275 / 9.250 s, crown bspline 7.458 / 7.439, cncjs_jsdc nurbs 18.145 / 18.120,
 /// camotics_vcarve trig 20.725 / 20.559, linuxcnc_blur_torus trig 177.833 / 177.916.
-pub const BLEND_SHARE: f64 = 0.2;
+/// Chord and `P` both 0.2 / 0.4 / 0.5 / 0.6 tol (modelled), fastest and slowest of the four
+/// methods: butterfly_1000 9.250-9.323 / 9.249-9.378 / 9.272-9.379 / 9.274-9.351 s, crown
+/// 7.439-7.507 / 7.445-7.513 / 7.520-7.542 / 7.508-7.516, cncjs_jsdc 18.103-18.182 /
+/// 18.044-18.179 / 18.012-18.085 / 18.014-18.077, camotics_vcarve 20.559-20.656 /
+/// 20.387-20.458 / 20.369-20.475 / 20.301-20.326 (two methods there fall back to paying
+/// each part at 0.6 tol). Longer chords help the CAM files' runs of short, nearly
+/// collinear lines (fewer junctions for LinuxCNC to blend); crown's sharp corners want the
+/// curves' share. 0.4 keeps butterfly_1000 and crown where 0.2 had them.
+pub const BLEND_SHARE: f64 = 0.4;
 /// Builds under the model of LinuxCNC's executed path before the program is built with
 /// each part paid in full: the first, and one with what it found over tol taken off the
 /// curves. The 13 files of ../shared/data/gcode and linuxcnc_arcspiral, bspline and
@@ -80,10 +88,11 @@ pub const BLEND_SHARE: f64 = 0.2;
 /// (linuxcnc_Cereal and linuxcnc_stellabee1 with nurbs).
 const EXECUTED_BUILDS: usize = 2;
 /// The chord (share of the tolerance) LinuxCNC gets when the model does not confirm a
-/// build: the default before the model (0.15 tol), paid in full with [`SUM_BLEND_SHARE`].
+/// build or does not apply (loops, emitters other than `lines`): the default before the
+/// model (0.15 tol), paid in full with [`SUM_BLEND_SHARE`].
 pub const SUM_CHORD_SHARE: f64 = 0.15;
 /// The `G64 P` (share of the tolerance) LinuxCNC gets when the model does not confirm a
-/// build: the default before the model (tol / 10).
+/// build or does not apply: the default before the model (tol / 10).
 pub const SUM_BLEND_SHARE: f64 = 0.1;
 /// Share of the tolerance LinuxCNC's blending may use when `--method none --emit ...`
 /// compresses the program's own lines: what [`COMPRESS_CHORD_SHARE`] leaves.
@@ -165,7 +174,7 @@ pub struct SmoothArgs {
     /// JSON report file.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Chord error (mm) when flattening curves into G1 lines [default: 0.2 tol for linuxcnc;
+    /// Chord error (mm) when flattening curves into G1 lines [default: 0.4 tol for linuxcnc;
     /// tol / 10 for generic; 0.3 tol for grbl, grblhal, marlin and klipper, which blend
     /// nothing].
     #[arg(long)]
@@ -198,7 +207,7 @@ pub struct SmoothArgs {
     /// --chord (default 0.8 tol there) instead of copying them.
     #[arg(long, value_enum)]
     pub emit: Option<EmitArg>,
-    /// LinuxCNC: `G64 P` (mm), the blending allowed, paid from --tol [default: 0.2 tol]. With
+    /// LinuxCNC: `G64 P` (mm), the blending allowed, paid from --tol [default: 0.4 tol]. With
     /// the default `lines`, the path LinuxCNC executes is measured by a model of its blend
     /// arcs, and the curves get `tol - max(chord, P)` less rounding and 2 % (the chord and
     /// the blends do not add up along a curve); where the model does not confirm it they
@@ -526,7 +535,10 @@ pub fn smooth_program(
         let mut less_mm = 0.0;
         for _ in 0..EXECUTED_BUILDS {
             let rule = BudgetRule::Executed { less_mm };
-            let out = smooth_program_with(name, src, program, base.clone(), ws, rule)?;
+            // A build the budget leaves no room for falls back to paying each part.
+            let Ok(out) = smooth_program_with(name, src, program, base.clone(), ws, rule) else {
+                break;
+            };
             if out.report.within_tol {
                 return Ok(out);
             }
@@ -537,7 +549,10 @@ pub fn smooth_program(
             less_mm += over + ws.tol * EXECUTED_MARGIN_SHARE;
         }
     }
-    let ws = if modelled {
+    // Paid in full, LinuxCNC's chord and `P` take the shares measured best for that budget
+    // (also where the model does not apply: loops, the other emitters).
+    let paid = ws.dialect.blends() && !compress;
+    let ws = if paid {
         WriteSettings {
             chord: ws.chord.or(Some(ws.tol * SUM_CHORD_SHARE)),
             g64: (ws.g64.0.or(Some(ws.tol * SUM_BLEND_SHARE)), ws.g64.1),

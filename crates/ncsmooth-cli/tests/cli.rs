@@ -1308,7 +1308,7 @@ fn smooth_writes_for_its_dialect_and_emitter() {
     };
     let (text, r) = smooth(&[]);
     assert_eq!(r["dialect"], "linuxcnc");
-    assert!(text.contains("G64 P0.002 Q0\n"), "{text}");
+    assert!(text.contains("G64 P0.004 Q0\n"), "{text}");
     let bound = r["blend"]["executed_bound_mm"].as_f64().unwrap();
     assert!(bound <= 0.01 && bound > 0.001, "{bound}");
     let lines = &r["blocks"];
@@ -1416,7 +1416,7 @@ fn smooth_as_a_linuxcnc_filter() {
     assert_eq!(progress.last(), Some(&100));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
-        out.starts_with("G21 G90\n") && out.contains("G64 P0.002 Q0"),
+        out.starts_with("G21 G90\n") && out.contains("G64 P0.004 Q0"),
         "{out}"
     );
     let o = run(&[
@@ -1686,8 +1686,10 @@ fn linuxcnc_blending_follows_the_feed_with_acc() {
     let f = write(&d, "quarter.ngc", src.as_bytes());
     let p_values = |args: &[&str]| -> Vec<f64> {
         let out = d.join("quarter-out.ngc");
+        // The schedule under the earlier default chord and P, 0.2 tol each.
         let mut a = vec!["smooth", f.to_str().unwrap(), "--method", "nurbs", "-o"];
         a.push(out.to_str().unwrap());
+        a.extend_from_slice(&["--chord", "0.002", "--g64-p", "0.002"]);
         a.extend_from_slice(args);
         let o = run(&a);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
