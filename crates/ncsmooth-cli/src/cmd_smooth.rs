@@ -210,8 +210,9 @@ pub struct SmoothArgs {
     /// LinuxCNC: `G64 P` (mm), the blending allowed, paid from --tol [default: 0.4 tol]. With
     /// the default `lines`, the path LinuxCNC executes is measured by a model of its blend
     /// arcs, and the curves get `tol - max(chord, P)` less rounding and 2 % (the chord and
-    /// the blends do not add up along a curve); where the model does not confirm it they
-    /// get `tol - chord - P` less rounding.
+    /// the blends do not add up along a curve); where the model does not confirm it, and
+    /// with the other emitters or loops, they get `tol - chord - P` less rounding, the
+    /// defaults then chord 0.15 tol and `P` 0.1 tol.
     #[arg(long)]
     pub g64_p: Option<f64>,
     /// LinuxCNC: `G64 Q` (mm), the naive-CAM merging allowed, paid from --tol [default: 0].
