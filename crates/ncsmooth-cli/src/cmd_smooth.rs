@@ -516,6 +516,13 @@ pub struct SmoothOutcome {
     pub report: SmoothRunReport,
 }
 
+/// `v` (mm) rounded to the nanometre, so that a share of the tolerance prints as the
+/// length it is (`0.08`, not `0.08000000000000002`).
+fn to_nm(v: f64) -> f64 {
+    const NM_PER_MM: f64 = 1e6;
+    (v * NM_PER_MM).round() / NM_PER_MM
+}
+
 /// Smooths, flattens, writes and verifies a parsed program (shared with the demo).
 /// `base` carries the method and its options; its tolerance is replaced by the curve
 /// tolerance derived from `tol` and `chord`.
@@ -939,7 +946,10 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         b.turns_over_5_deg,
         r.blend.map_or(String::new(), |bl| format!(
             "; LinuxCNC G64 P{} Q{} (verbatim motion P{}), executed path within {:.6} mm",
-            bl.p_mm, bl.q_mm, bl.verbatim_p_mm, bl.executed_bound_mm
+            to_nm(bl.p_mm),
+            to_nm(bl.q_mm),
+            to_nm(bl.verbatim_p_mm),
+            bl.executed_bound_mm
         ))
     ));
     progress(100);
