@@ -1723,8 +1723,16 @@ fn linuxcnc_blending_follows_the_feed_with_acc() {
     let slow_src = src.replace("F3000", "F600");
     std::fs::write(&f, slow_src).unwrap();
     assert_eq!(p_values(&["--acc", "500", "--feed", "50"]), scheduled);
+    // The run starts and ends at rest, where both get the least P; in between, the
+    // blocks sized for 10 mm/s get less than those sized for 50.
     let programmed = p_values(&["--acc", "500"]);
-    assert!(programmed.iter().any(|&p| p < least), "{programmed:?}");
+    let floor = programmed.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(floor <= least, "{programmed:?}");
+    let between = |v: &[f64]| v.iter().filter(|&&p| p > floor && p < 0.002).count();
+    assert!(
+        between(&programmed) < between(&scheduled),
+        "{programmed:?} {scheduled:?}"
+    );
 }
 
 #[test]

@@ -25,7 +25,9 @@
 //! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
 
 use crate::source::{flags, LineInfo, PathMode, WriteState};
-use crate::writer::{push_fixed, ChainMode, Floor, Frame, MotionWriter, MAX_DECIMALS};
+use crate::writer::{
+    push_fixed, ChainMode, Floor, Frame, MotionWriter, RunEnd, RunEnds, MAX_DECIMALS,
+};
 use crate::{Plane, Program};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
@@ -83,6 +85,11 @@ pub struct RewriteOptions {
     /// so that LinuxCNC's blends leave their lines, along which it accelerates with the
     /// whole of it. Default `None`: one `P` for the whole run.
     pub blend_acc_mm_s2: Option<f64>,
+    /// With [`RewriteOptions::blend`] and a long-lines emitter: the blocks of a chain are
+    /// evened out for LinuxCNC's blends, which take at most half of each line
+    /// ([`crate::chain::even_out`]), a point moved inside the curve by no more than its
+    /// blend leaves of `P`. Default false.
+    pub even_out: bool,
     /// With [`RewriteOptions::blend_acc_mm_s2`]: the machine's fastest feed (mm/s), which
     /// the blends are sized for. Default `None`: the programmed feeds.
     pub blend_feed_mm_s: Option<f64>,
@@ -118,6 +125,7 @@ impl Default for RewriteOptions {
             long_arcs: true,
             blend_acc_mm_s2: None,
             blend_feed_mm_s: None,
+            even_out: false,
         }
     }
 }
@@ -253,6 +261,11 @@ impl RewriteOptions {
             blend_feed_mm_s: feed_mm_s,
             ..self
         }
+    }
+
+    /// The same options with [`RewriteOptions::even_out`] set.
+    pub fn with_even_out(self, even_out: bool) -> RewriteOptions {
+        RewriteOptions { even_out, ..self }
     }
 
     /// The same options with header lines.
@@ -906,12 +919,33 @@ impl<'a> Region<'a> {
         pts
     }
 
+    /// What moves next to the run in the program (`orig`), for the blend schedule's speed
+    /// estimate: the programmed moves just before and after it, at rest at the program's
+    /// ends.
+    fn run_ends(&self, orig: &[&Move]) -> RunEnds {
+        let Some((lo, hi)) = self.program else {
+            return RunEnds::default();
+        };
+        let joins = |t: Option<Vec3>| t.map_or(RunEnd::Free, RunEnd::Joins);
+        RunEnds {
+            before: match lo.checked_sub(1) {
+                None => RunEnd::Rest,
+                Some(j) => joins(orig[j].segment.end_tangent()),
+            },
+            after: match orig.get(hi) {
+                None => RunEnd::Rest,
+                Some(m) => joins(m.segment.start_tangent()),
+            },
+        }
+    }
+
     /// Writes the pending moves (`orig`: the program's moves, for a block floor).
     fn flush(&mut self, s: &mut Vec<u8>, orig: &[&Move]) -> Result<(), RewriteError> {
         let Some(first) = self.pending.first() else {
             return Ok(());
         };
         let line = first.line;
+        self.w.run_ends = self.run_ends(orig);
         if let Some(f) = self.floor {
             self.w.floor = Some(Floor {
                 program: self.program_polyline(orig, f.tol_mm * FLOOR_PROGRAM_SHARE),
@@ -985,6 +1019,7 @@ impl<'a> Region<'a> {
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);
+        w.blend_p_mm = opts.blend.filter(|_| opts.even_out).map(|b| b.p_mm);
         w.blend_schedule = opts.blend.zip(opts.blend_acc_mm_s2).map(|(b, acc_mm_s2)| {
             crate::writer::BlendSchedule {
                 p_mm: b.p_mm,

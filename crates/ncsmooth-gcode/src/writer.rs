@@ -358,6 +358,29 @@ pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 /// lines, unrounded 9.368 s with 376.
 pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 
+/// What moves next to a run of blocks at one of its ends, for a [`BlendSchedule`]'s
+/// speed estimate.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum RunEnd {
+    /// Not known: the estimate takes no limit there (it errs high).
+    #[default]
+    Free,
+    /// The machine is at rest there (the program's start or end).
+    Rest,
+    /// A move in this unit direction (of travel) joins the run there: LinuxCNC blends
+    /// that junction within the run's `P` at most, which bounds the speed.
+    Joins(Vec3),
+}
+
+/// The two ends of a run of blocks, see [`RunEnd`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RunEnds {
+    /// What moves before the run's first block.
+    pub before: RunEnd,
+    /// What moves after its last block.
+    pub after: RunEnd,
+}
+
 /// Per-block `G64 P` for LinuxCNC's blending of a flattened curve.
 ///
 /// LinuxCNC blends two lines turning by `phi` with an arc tangent to both that takes
@@ -404,8 +427,16 @@ pub struct BlendSchedule {
 
 impl BlendSchedule {
     /// The share of `P` for each block from `start` through `pts` (one per point), or an
-    /// empty list when `feed_mm_s` is unknown.
-    pub fn shares(&self, start: Vec3, pts: &[Vec3], feed_mm_s: Option<f64>) -> Vec<f64> {
+    /// empty list when `feed_mm_s` is unknown. `ends` bound the speed estimate at the
+    /// run's ends: after a rapid that turns into the run, LinuxCNC starts it nearly at
+    /// rest, and its first blocks need only the blends their speed from there needs.
+    pub fn shares(
+        &self,
+        start: Vec3,
+        pts: &[Vec3],
+        feed_mm_s: Option<f64>,
+        ends: RunEnds,
+    ) -> Vec<f64> {
         let fastest = Some(self.feed_max_mm_s).filter(|v| v.is_finite());
         let Some(v) = fastest.or(feed_mm_s).filter(|v| *v > 0.0) else {
             return Vec::new();
@@ -420,7 +451,7 @@ impl BlendSchedule {
             .windows(2)
             .map(|b| VertexBlend::new(b[0], b[1], tangent_rad))
             .collect();
-        let speed = self.speeds(&blocks, &blends, v);
+        let speed = self.speeds(&blocks, &blends, v, ends);
         // need[k]: the share at the vertex ending block k (the run's ends get all).
         let need: Vec<f64> = (0..n)
             .map(|k| match blends.get(k) {
@@ -468,6 +499,25 @@ impl BlendSchedule {
             .collect()
     }
 
+    /// The speed bound at a run's end whose block there is `block`: none where the end is
+    /// free, 0 at rest, and where a move joins it, what LinuxCNC's blend within the run's
+    /// `P` allows at that junction (the half-line bound, which needs the other move's
+    /// length, left out: the bound errs high).
+    fn end_speed(&self, end: RunEnd, block: Vec3) -> Option<f64> {
+        match end {
+            RunEnd::Free => None,
+            RunEnd::Rest => Some(0.0),
+            RunEnd::Joins(d) => {
+                let phi = d.angle_to(block);
+                if phi.is_nan() || phi <= 0.0 {
+                    return None;
+                }
+                let r = self.p_mm / (0.25 * phi).tan() / (0.5 * phi).tan();
+                Some((LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2 * r).sqrt())
+            }
+        }
+    }
+
     /// The turn (rad) below which LinuxCNC joins two lines at feed `v` as tangent, without a
     /// blend (tp.c `tpSetupTangent`: the kink's acceleration `(v / T + a) turn` within
     /// [`LINUXCNC_TANGENT_KINK_RATIO`] of the axes' `a`).
@@ -482,7 +532,7 @@ impl BlendSchedule {
     /// tangential limit of a line: the smallest axis limit over that axis's share of the
     /// direction). The run's ends are taken as unconstrained: the estimate errs high, and
     /// a speed estimated high only keeps more of `P`.
-    fn speeds(&self, blocks: &[Vec3], blends: &[VertexBlend], v: f64) -> Vec<f64> {
+    fn speeds(&self, blocks: &[Vec3], blends: &[VertexBlend], v: f64, ends: RunEnds) -> Vec<f64> {
         let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
         let mut s: Vec<f64> = blends
             .iter()
@@ -495,13 +545,24 @@ impl BlendSchedule {
                 }
             })
             .collect();
-        // Block k + 1 joins vertex k to vertex k + 1.
-        let reach = |k: usize, from: f64| -> f64 {
-            let d = blocks[k + 1];
+        // Speed reached from `from` along block `d`.
+        let along = |d: Vec3, from: f64| -> f64 {
             let len = d.norm();
             let acc = self.acc_mm_s2 * len / d.max_abs().max(f64::MIN_POSITIVE);
             (from * from + 2.0 * acc * len).sqrt()
         };
+        // Block k + 1 joins vertex k to vertex k + 1.
+        let reach = |k: usize, from: f64| -> f64 { along(blocks[k + 1], from) };
+        let n = blocks.len();
+        if s.is_empty() {
+            return s;
+        }
+        if let (Some(v0), Some(first)) = (self.end_speed(ends.before, blocks[0]), s.first_mut()) {
+            *first = first.min(along(blocks[0], v0));
+        }
+        if let (Some(v1), Some(last)) = (self.end_speed(ends.after, blocks[n - 1]), s.last_mut()) {
+            *last = last.min(along(blocks[n - 1], v1));
+        }
         for k in 1..s.len() {
             s[k] = s[k].min(reach(k - 1, s[k - 1]));
         }
@@ -550,6 +611,11 @@ impl VertexBlend {
         self.half_line_mm.min(p_mm / self.tan_quarter)
     }
 
+    /// How far inside the vertex the blend within `p_mm` passes (at most `p_mm`).
+    fn depth_mm(&self, p_mm: f64) -> f64 {
+        self.reach_mm(p_mm) * self.tan_quarter
+    }
+
     /// Radius of the blend within `p_mm`.
     fn radius_mm(&self, p_mm: f64) -> f64 {
         self.reach_mm(p_mm) / self.tan_half
@@ -586,10 +652,17 @@ pub(crate) struct MotionWriter {
     pub violation: Option<(char, f64)>,
     /// Under a long-lines emitter, short blocks are lifted against this program.
     pub floor: Option<Floor>,
+    /// LinuxCNC's `G64 P` of the runs (mm): the long-lines emitter evens out its blocks
+    /// for the blends ([`crate::chain::even_out`]).
+    pub blend_p_mm: Option<f64>,
     /// Per-block `G64 P` under a long-lines emitter (LinuxCNC).
     pub blend_schedule: Option<BlendSchedule>,
     /// Share of the schedule's `P` in force.
     blend_share: f64,
+    /// What moves next to the moves [`MotionWriter::write_moves`] is given.
+    pub run_ends: RunEnds,
+    /// What moves next to the chain being written.
+    chain_ends: RunEnds,
 }
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
@@ -671,8 +744,11 @@ impl MotionWriter {
             points: Vec::new(),
             violation: None,
             floor: None,
+            blend_p_mm: None,
             blend_schedule: None,
             blend_share: 1.0,
+            run_ends: RunEnds::default(),
+            chain_ends: RunEnds::default(),
         };
         w.forget_axes();
         w
@@ -1122,6 +1198,18 @@ impl MotionWriter {
                 let min_block = mode
                     .min_block_mm
                     .max(m.feed_mm_s.unwrap_or(0.0) * mode.min_block_s);
+                self.chain_ends = RunEnds {
+                    before: if k == 0 {
+                        self.run_ends.before
+                    } else {
+                        RunEnd::Free
+                    },
+                    after: if e == moves.len() {
+                        self.run_ends.after
+                    } else {
+                        RunEnd::Free
+                    },
+                };
                 self.write_chain(&moves[k..e], min_block, mode.arcs, out)?;
             } else {
                 self.write_move(m, out)?;
@@ -1162,7 +1250,17 @@ impl MotionWriter {
         let r = if arcs {
             self.write_arc_pieces(moves[0], &dense, &hard, tol, out)
         } else {
-            self.write_lines(moves[0], &dense, &hard, tol, min_block_mm, true, out)
+            let dense_acc = if all_lines { 0.0 } else { dense_tol };
+            self.write_lines(
+                moves[0],
+                &dense,
+                &hard,
+                tol,
+                dense_acc,
+                min_block_mm,
+                true,
+                out,
+            )
         };
         self.points = dense;
         r
@@ -1177,12 +1275,13 @@ impl MotionWriter {
         dense: &[Vec3],
         hard: &[bool],
         tol: f64,
+        dense_acc: f64,
         min_block_mm: f64,
         lift: bool,
         out: &mut W,
     ) -> fmt::Result {
         let mut pts = Vec::with_capacity(dense.len() / 4 + 2);
-        crate::chain::simplify(
+        let idx = crate::chain::simplify(
             dense,
             hard,
             tol,
@@ -1190,6 +1289,27 @@ impl MotionWriter {
             |p| self.rounded(p),
             &mut pts,
         );
+        if let Some(p_mm) = self.blend_p_mm.filter(|_| lift) {
+            // LinuxCNC's blends: even out the blocks for their radius within `P`, a point
+            // moved inside the curve by no more than its blend leaves of `P`.
+            let blend = |a: Vec3, b: Vec3, c: Vec3| VertexBlend::new(b - a, c - b, 0.0);
+            let how = crate::chain::EvenOut {
+                score: |a, b, c| blend(a, b, c).radius_mm(p_mm),
+                room: |a, b, c| p_mm - blend(a, b, c).depth_mm(p_mm),
+                dense_acc_mm: dense_acc,
+            };
+            crate::chain::even_out(
+                dense,
+                hard,
+                &idx,
+                tol,
+                min_block_mm,
+                |p| self.rounded(p),
+                &how,
+                self.written_pos(),
+                &mut pts,
+            );
+        }
         if let Some(f) = lift.then(|| self.floor.take()).flatten() {
             let program = crate::chain::Program {
                 points: &f.program,
@@ -1207,7 +1327,7 @@ impl MotionWriter {
             self.floor = Some(f);
         }
         let shares = match self.blend_schedule.filter(|_| lift) {
-            Some(s) => s.shares(self.written_pos(), &pts, m.feed_mm_s),
+            Some(s) => s.shares(self.written_pos(), &pts, m.feed_mm_s, self.chain_ends),
             None => Vec::new(),
         };
         for (k, p) in pts.into_iter().enumerate() {
@@ -1264,7 +1384,7 @@ impl MotionWriter {
                     };
                     if !written {
                         let span = &dense[from..=to];
-                        self.write_lines(m, span, &hard[from..=to], tol, 0.0, false, out)?;
+                        self.write_lines(m, span, &hard[from..=to], tol, 0.0, 0.0, false, out)?;
                     }
                 }
             }
@@ -1484,7 +1604,7 @@ mod tests {
         // 0.4 mm chord of which LinuxCNC may take half at the run's end and 0.029 mm at
         // the other leaves 0.17 mm of line, under the 0.2 mm it consumes at 50 mm/s.
         let (start, pts) = circle_chords(40.0, 0.01, 20);
-        let shares = s.shares(start, &pts, Some(100.0));
+        let shares = s.shares(start, &pts, Some(100.0), RunEnds::default());
         assert_eq!(shares.len(), 20);
         assert_eq!(&shares[..2], &[1.0, 1.0]);
         assert_eq!(&shares[18..], &[1.0, 1.0]);
@@ -1492,12 +1612,18 @@ mod tests {
         assert!(shares[2..18].iter().all(|&x| x == at_feed), "{shares:?}");
         // 0.08 mm chords are consumed whatever P: all of it, for the radius.
         let (start, pts) = circle_chords(40.0, 0.002, 20);
-        assert!(s.shares(start, &pts, Some(50.0)).iter().all(|&x| x == 1.0));
+        assert!(s
+            .shares(start, &pts, Some(50.0), RunEnds::default())
+            .iter()
+            .all(|&x| x == 1.0));
         // A 5 mm circle needs more than it has: all of P. A 1000 mm one: the least.
         let (start, pts) = circle_chords(5.0, 0.01, 20);
-        assert!(s.shares(start, &pts, Some(50.0)).iter().all(|&x| x == 1.0));
+        assert!(s
+            .shares(start, &pts, Some(50.0), RunEnds::default())
+            .iter()
+            .all(|&x| x == 1.0));
         let (start, pts) = circle_chords(1000.0, 0.001, 20);
-        let least = s.shares(start, &pts, Some(50.0));
+        let least = s.shares(start, &pts, Some(50.0), RunEnds::default());
         assert!(
             least[1..19].iter().all(|&x| x == BLEND_SCHEDULE_MIN_SHARE),
             "{least:?}"
@@ -1506,17 +1632,22 @@ mod tests {
         // may reach it). Without it, a slower programmed feed needs less; no feed, no
         // schedule.
         let (start, pts) = circle_chords(40.0, 0.01, 20);
-        assert_eq!(s.shares(start, &pts, Some(10.0)), shares);
+        assert_eq!(
+            s.shares(start, &pts, Some(10.0), RunEnds::default()),
+            shares
+        );
         let programmed = BlendSchedule {
             feed_max_mm_s: f64::INFINITY,
             ..s
         };
-        let slow = programmed.shares(start, &pts, Some(10.0));
+        let slow = programmed.shares(start, &pts, Some(10.0), RunEnds::default());
         assert!(
             slow[2..18].iter().all(|&x| x == BLEND_SCHEDULE_MIN_SHARE),
             "{slow:?}"
         );
-        assert!(programmed.shares(start, &pts, None).is_empty());
+        assert!(programmed
+            .shares(start, &pts, None, RunEnds::default())
+            .is_empty());
     }
 
     /// 0.4 mm chords turning 0.01 rad each (a 40 mm radius), `n` before and `n` after a
@@ -1545,7 +1676,7 @@ mod tests {
             feed_max_mm_s: 50.0,
         };
         let (start, pts) = chords_with_a_corner(40);
-        let shares = s.shares(start, &pts, Some(50.0));
+        let shares = s.shares(start, &pts, Some(50.0), RunEnds::default());
         assert_eq!(shares.len(), 80);
         // The corner (a 0.25 mm radius at most: 10.4 mm/s) keeps all of P on both its
         // blocks.
@@ -1574,6 +1705,46 @@ mod tests {
         );
     }
 
+    #[test]
+    fn blend_schedule_starts_a_run_from_where_the_machine_is() {
+        let s = BlendSchedule {
+            p_mm: 0.001,
+            q_mm: 0.0,
+            acc_mm_s2: 500.0,
+            feed_max_mm_s: 50.0,
+        };
+        // 0.4 mm chords of a 40 mm radius (0.0743 of P at 50 mm/s, see above). From
+        // rest the machine is at sqrt(2 a s) = 20 mm/s one chord in, 28 two chords in,
+        // and needs less than the feed's share there; from 2.5 mm on it is at feed.
+        let (start, pts) = circle_chords(40.0, 0.01, 40);
+        let ends = |before, after| RunEnds { before, after };
+        let free = s.shares(start, &pts, Some(50.0), RunEnds::default());
+        let rest = s.shares(start, &pts, Some(50.0), ends(RunEnd::Rest, RunEnd::Rest));
+        let at_feed = 2f64.powf(-15.0 / 4.0);
+        assert_eq!(free[2], at_feed, "{free:?}");
+        assert!(rest[2] < at_feed && rest[37] < at_feed, "{rest:?}");
+        assert_eq!(&rest[10..30], &free[10..30]);
+        assert_eq!((rest[0], rest[39]), (1.0, 1.0));
+        // A move joining along the first chord bounds nothing; one at right angles (a
+        // plunge) bounds the speed like a stop does, nearly.
+        let along = pts[0] - start;
+        let joined = s.shares(
+            start,
+            &pts,
+            Some(50.0),
+            ends(RunEnd::Joins(along.normalized().unwrap()), RunEnd::Free),
+        );
+        assert_eq!(joined, free);
+        let plunge = Vec3::new(0.0, 0.0, -1.0);
+        let plunged = s.shares(
+            start,
+            &pts,
+            Some(50.0),
+            ends(RunEnd::Joins(plunge), RunEnd::Free),
+        );
+        assert!(plunged[2] < at_feed && plunged[2] >= rest[2], "{plunged:?}");
+    }
+
     proptest::proptest! {
         /// Whatever the lines (repeated points, reversals, tiny and long blocks), every
         /// block gets a share of `P` in `[BLEND_SCHEDULE_MIN_SHARE, 1]`, never more than
@@ -1585,6 +1756,7 @@ mod tests {
             acc in 10.0f64..5000.0,
             feed in 1.0f64..200.0,
             fastest in proptest::prelude::any::<bool>(),
+            ends in 0u8..9,
         ) {
             let s = BlendSchedule {
                 p_mm: 0.001,
@@ -1601,7 +1773,13 @@ mod tests {
                 }
                 line.push(last);
             }
-            let shares = s.shares(Vec3::new(0.0, 0.0, 0.0), &line, Some(feed));
+            let end = |k: u8| match k {
+                0 => RunEnd::Free,
+                1 => RunEnd::Rest,
+                _ => RunEnd::Joins(Vec3::new(1.0, -1.0, 0.5).normalized().unwrap()),
+            };
+            let ends = RunEnds { before: end(ends % 3), after: end(ends / 3) };
+            let shares = s.shares(Vec3::new(0.0, 0.0, 0.0), &line, Some(feed), ends);
             proptest::prop_assert_eq!(shares.len(), line.len());
             for &x in &shares {
                 proptest::prop_assert!((BLEND_SCHEDULE_MIN_SHARE..=1.0).contains(&x), "{:?}", shares);
