@@ -83,11 +83,11 @@ pub const VERBATIM_BLEND_SHARE: f64 = 0.95;
 pub const BLEND_SHARE: f64 = 0.4;
 /// Builds under the model of LinuxCNC's executed path before the program is built with
 /// each part paid in full: the first, and one with what it found over tol taken off the
-/// curves. (Before them, one with the blocks evened out for LinuxCNC's blends, which is
-/// kept when the model confirms it: camotics_tiger arc, linuxcnc_LHchips4 nurbs and
-/// camotics_bear bspline are not, their evened blends meeting the curves' own deviation.) The 13 files of ../shared/data/gcode and linuxcnc_arcspiral, bspline and
-/// nurbs at tol 0.01, chord and `P` 0.2 tol: 26 of 28 builds pass the first, the other 2
-/// the second (linuxcnc_Cereal and linuxcnc_stellabee1 with nurbs); at the 0.4 tol
+/// curves. (Before them, one with the blocks evened out for LinuxCNC's blends, kept when
+/// the model confirms it: camotics_tiger arc and linuxcnc_LHchips4 arc, nurbs and trig
+/// are not, and are built with the greedy blocks.) The 13 files of ../shared/data/gcode
+/// and linuxcnc_arcspiral, bspline and nurbs at tol 0.01, chord and `P` 0.2 tol: 26 of 28
+/// builds pass the first, the other 2 the second (linuxcnc_Cereal and linuxcnc_stellabee1 with nurbs); at the 0.4 tol
 /// defaults 20 keep the model's budget and the 8 of linuxcnc_51MeanderAve, _Cereal,
 /// _blur_torus and _stellabee1 are paid in full.
 const EXECUTED_BUILDS: usize = 2;

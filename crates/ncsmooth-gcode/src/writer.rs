@@ -508,12 +508,13 @@ impl BlendSchedule {
             RunEnd::Free => None,
             RunEnd::Rest => Some(0.0),
             RunEnd::Joins(d) => {
-                let phi = d.angle_to(block);
-                if phi.is_nan() || phi <= 0.0 {
-                    return None;
-                }
-                let r = self.p_mm / (0.25 * phi).tan() / (0.5 * phi).tan();
-                Some((LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2 * r).sqrt())
+                let blend = VertexBlend {
+                    half_line_mm: f64::INFINITY,
+                    ..VertexBlend::new(d, block, 0.0)
+                };
+                let r = blend.radius_mm(self.p_mm);
+                r.is_finite()
+                    .then(|| (LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2 * r).sqrt())
             }
         }
     }
@@ -1589,14 +1590,19 @@ mod tests {
         (at(0), (1..=n).map(at).collect())
     }
 
-    #[test]
-    fn blend_schedule_gives_curves_the_share_their_feed_needs() {
-        let s = BlendSchedule {
+    /// The schedule of these tests: `P` 0.001 mm, 500 mm/s^2, 50 mm/s at most.
+    fn schedule() -> BlendSchedule {
+        BlendSchedule {
             p_mm: 0.001,
             q_mm: 0.0,
             acc_mm_s2: 500.0,
             feed_max_mm_s: 50.0,
-        };
+        }
+    }
+
+    #[test]
+    fn blend_schedule_gives_curves_the_share_their_feed_needs() {
+        let s = schedule();
         // 50 mm/s needs a radius of 2500 / 433 = 5.77 mm. At a turn of 0.01 rad that
         // blend takes 5.77 tan(0.005) = 0.029 mm of each 0.4 mm chord, which a P of
         // 0.029 tan(0.0025) = 7.2e-5 mm allows: 0.072 of P, rounded up to 2^(-15/4) =
@@ -1669,12 +1675,7 @@ mod tests {
 
     #[test]
     fn blend_schedule_leaves_lines_where_linuxcnc_brakes_for_a_corner() {
-        let s = BlendSchedule {
-            p_mm: 0.001,
-            q_mm: 0.0,
-            acc_mm_s2: 500.0,
-            feed_max_mm_s: 50.0,
-        };
+        let s = schedule();
         let (start, pts) = chords_with_a_corner(40);
         let shares = s.shares(start, &pts, Some(50.0), RunEnds::default());
         assert_eq!(shares.len(), 80);
@@ -1707,12 +1708,7 @@ mod tests {
 
     #[test]
     fn blend_schedule_starts_a_run_from_where_the_machine_is() {
-        let s = BlendSchedule {
-            p_mm: 0.001,
-            q_mm: 0.0,
-            acc_mm_s2: 500.0,
-            feed_max_mm_s: 50.0,
-        };
+        let s = schedule();
         // 0.4 mm chords of a 40 mm radius (0.0743 of P at 50 mm/s, see above). From
         // rest the machine is at sqrt(2 a s) = 20 mm/s one chord in, 28 two chords in,
         // and needs less than the feed's share there; from 2.5 mm on it is at feed.
