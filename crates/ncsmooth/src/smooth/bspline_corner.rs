@@ -562,6 +562,12 @@ pub fn smooth_chain(
             from_transition = false;
             continue;
         }
+        // After a straight junction, an arc or a skipped degenerate move the last piece
+        // ended in an earlier move: this element's pieces start in its own, and take its
+        // line and feed, not the lower feed of the move before.
+        if em.cur_pos.index < e.idx {
+            em.cur_pos = ChainPos::start_of(e.idx);
+        }
         if let (true, Some(pl)) = (j == n - 1, &closing) {
             close_chain(&mut em, pl, &e, elems[0].a);
             break;
@@ -949,6 +955,37 @@ mod tests {
             let e = q1.dist(t.eval(0.5));
             prop_assert!((e - corner_error(l, th.cos())).abs() <= 1e-12 * l.max(1.0) * 100.0);
             prop_assert!((t.error() - e).abs() <= 1e-12 * l.max(1.0) * 100.0);
+        }
+    }
+
+    #[test]
+    fn a_line_after_a_straight_junction_keeps_its_own_line_and_feed() {
+        // cncjs_jsdc's plunge: a slow approach (line 3), a fast move on (line 4) straight
+        // through it, a corner into the cut (line 6). The trimmed part of line 4 before the
+        // corner is line 4's, at its feed: a comment between lines 4 and 5 stays after it,
+        // and the fast move is not slowed to the approach's feed (nor the reverse).
+        let z = |z: f64| Vec3::new(0.0, 0.0, z);
+        for (f3, f4) in [(2.0, 40.0), (40.0, 2.0)] {
+            let mut tp = Toolpath::new(z(5.0));
+            tp.push_move(Move::feed(Line::new(z(5.0), z(1.0)), Some(f3), 3));
+            tp.push_move(Move::feed(Line::new(z(1.0), z(0.0)), Some(f4), 4));
+            let cut = Line::new(z(0.0), Vec3::new(10.0, 0.0, 0.0));
+            tp.push_move(Move::feed(cut, Some(17.0), 6));
+            let out = smooth(&tp, &bspline_opts(0.01)).unwrap();
+            let moves: Vec<&Move> = out.toolpath.moves().collect();
+            for m in &moves {
+                let (a, b) = (m.segment.start(), m.segment.end());
+                let line = if a.z + b.z > 2.0 {
+                    3
+                } else if a.x.max(b.x) < 1e-12 {
+                    4
+                } else {
+                    continue;
+                };
+                let feed = if line == 3 { f3 } else { f4 };
+                assert_eq!((m.line, m.feed_mm_s), (line, Some(feed)), "{moves:?}");
+            }
+            assert!(moves.iter().any(|m| m.line == 4), "{moves:?}");
         }
     }
 
