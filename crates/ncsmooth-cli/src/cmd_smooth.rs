@@ -30,7 +30,7 @@ use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::stats::PathStats;
 use ncsmooth::verify::{continuity, Continuity, Deviation};
 use ncsmooth_gcode::budget::{read_back, read_written, Budget};
-use ncsmooth_gcode::rewrite::{Blend, BlockFloor, Emit};
+use ncsmooth_gcode::rewrite::{Blend, BlockFloor, CornerBlend, Emit};
 use ncsmooth_gcode::{Dialect, RewriteOptions};
 use serde::Serialize;
 use std::io::Write;
@@ -63,6 +63,12 @@ pub const STEPPER_CHORD_SHARE: f64 = 0.3;
 /// samples cut inside the blend arc, and `linuxcnc_run.py` put a programmed vertex
 /// 0.01015 mm from the sampled path under `P0.01`.
 pub const VERBATIM_BLEND_SHARE: f64 = 0.95;
+
+/// LinuxCNC's blend at a junction has a tolerance of at most a quarter of each line
+/// (blendmath.c `tcFindBlendTolerance`): with `--acc`, a written block shorter than this
+/// many times the run's `P` is replaced by the programmed corner where the tolerance
+/// allows ([`ncsmooth_gcode::rewrite::CornerBlend`]).
+pub const LINUXCNC_CORNER_FLOOR_P: f64 = 4.0;
 
 /// Share of the tolerance LinuxCNC's blending may use (`G64 P`). Its blend at a vertex of
 /// a curve flattened within `chord` follows the curve's own radius once `P` reaches the
@@ -760,10 +766,36 @@ fn smooth_program_with(
             },
         })
         .with_rewrite_unchanged(compress || (floor && method != Method::None))
-        .with_block_floor(dialect.block_floor_mm().map(|m| BlockFloor {
-            min_block_mm: m,
-            tol_mm: tol - rounding - blend_mm,
-        }));
+        .with_block_floor(match dialect.block_floor_mm() {
+            Some(m) => Some(BlockFloor {
+                min_block_mm: m,
+                tol_mm: tol - rounding - blend_mm,
+                corner: None,
+            }),
+            // LinuxCNC, where the model of its executed path checks the build and the
+            // schedule sizes the blends: a block shorter than four `P` caps its blends at
+            // a quarter of its length; the programmed corner instead, blended within a
+            // `P` of its own.
+            // A `Q` is not modelled: no corner then.
+            None => match (rule, blend, verbatim_blend, ws.acc_mm_s2, emit) {
+                (
+                    BudgetRule::Executed { less_mm, .. },
+                    Some(b),
+                    Some(v),
+                    Some(_),
+                    EmitArg::Lines,
+                ) if b.q_mm == 0.0 => Some(BlockFloor {
+                    min_block_mm: LINUXCNC_CORNER_FLOOR_P * b.p_mm,
+                    tol_mm: tol - rounding - blend_mm,
+                    corner: Some(CornerBlend {
+                        total_mm: tol - rounding - less_mm,
+                        max_p_mm: v.p_mm,
+                        run_p_mm: b.p_mm,
+                    }),
+                }),
+                _ => None,
+            },
+        });
     let write = |tp: &ncsmooth::Toolpath| {
         ncsmooth_gcode::rewrite(src, program, tp, &wopts)
             .map_err(|e| anyhow::anyhow!("writing the smoothed program: {e}"))

@@ -609,6 +609,9 @@ fn places(dense: &[Vec3], a: At, b: At) -> Vec<At> {
     out
 }
 
+/// Index of the programmed-corner replacement among [`lift_short_blocks`]' tries.
+const SNAP_TRY: usize = 3;
+
 /// Samples per tolerance along a segment in [`lift_short_blocks`]' check: the distance to
 /// the program is 1-Lipschitz along the segment, so samples `tol / SAMPLES_PER_TOL` apart
 /// bound it between them within half that step, which the check deducts.
@@ -868,11 +871,36 @@ pub fn lift_short_blocks(
     round: impl Fn(Vec3) -> Vec3,
 ) -> usize {
     let grid = std::cell::OnceCell::new();
-    lift_short_blocks_in(start, pts, min_block_mm, program, &grid, round)
+    let mut how = Lift::default();
+    lift_short_blocks_in(start, pts, min_block_mm, program, &grid, round, &mut how)
+}
+
+/// Which replacements [`lift_short_blocks`] tries, and what it reports back.
+#[derive(Debug, Default)]
+pub(crate) struct Lift {
+    /// Only the programmed corner, and not at the chain's last block (LinuxCNC: a block
+    /// shorter than four `P` caps its blends at a quarter of its length, the programmed
+    /// corner is blended within a `P` of its own; crown's last 40 mm line, made to end at
+    /// the programmed corner, ran at half the acceleration, 7.520 s against 7.443).
+    pub corners_only: bool,
+    /// The programmed vertices put in place of short blocks.
+    pub snapped: Vec<Vec3>,
+}
+
+impl Program<'_> {
+    /// Distance from `p` to the programmed path where it is within the tolerance
+    /// (infinite where no programmed segment comes that near).
+    pub(crate) fn dist_near(&self, grid: &SegGrid, p: Vec3) -> f64 {
+        let mut segs = Vec::new();
+        self.near(grid, p, p, self.tol_mm, &mut segs);
+        self.dist(p, &segs)
+    }
 }
 
 /// [`lift_short_blocks`] with the program's grid built on the first short block and kept
-/// in `grid` for the next call on the same program (a run's chains share it).
+/// in `grid` for the next call on the same program (a run's chains share it), and the
+/// replacements `how` says (for LinuxCNC, [`Lift::corners_only`]: only the programmed
+/// corner), the programmed corners put in recorded there.
 pub(crate) fn lift_short_blocks_in(
     start: Vec3,
     pts: &mut Vec<Vec3>,
@@ -880,6 +908,7 @@ pub(crate) fn lift_short_blocks_in(
     program: &Program,
     grid: &std::cell::OnceCell<SegGrid>,
     round: impl Fn(Vec3) -> Vec3,
+    how: &mut Lift,
 ) -> usize {
     let mut poly = Vec::with_capacity(pts.len() + 1);
     poly.push(start);
@@ -911,17 +940,27 @@ pub(crate) fn lift_short_blocks_in(
             inner.then(|| (i - 2, i + 1, Some(round(mid)))),
             (i + 1 < n).then(|| (i - 1, i + 1, None)),
             (i >= 2).then(|| (i - 2, i, None)),
-            inner.then(|| (i - 2, i + 1, snap)),
+            (inner && (!how.corners_only || i + 2 < n)).then(|| (i - 2, i + 1, snap)),
             (i + 1 < n && swaps_left > 0).then(|| (i - 1, i + 1, stretch(i - 1, i))),
             (i >= 2 && swaps_left > 0).then(|| (i - 2, i, stretch(i, i - 1))),
         ];
-        let fit = tries.into_iter().flatten().find(|&(lo, hi, new)| {
-            replacement_fits(&poly, lo, hi, new, program, grid, &mut scratch)
-        });
+        let fit = tries
+            .into_iter()
+            .enumerate()
+            .filter(|&(k, _)| !how.corners_only || k == SNAP_TRY)
+            .filter_map(|(k, t)| t.map(|t| (k, t)))
+            .find(|&(_, (lo, hi, new))| {
+                replacement_fits(&poly, lo, hi, new, program, grid, &mut scratch)
+            });
         match fit {
-            Some((lo, hi, new)) => {
+            Some((k, (lo, hi, new))) => {
                 if hi - lo == 2 && new.is_some() {
                     swaps_left -= 1;
+                }
+                if let (SNAP_TRY, Some(v)) = (k, new) {
+                    if !how.snapped.contains(&v) {
+                        how.snapped.push(v);
+                    }
                 }
                 poly.splice(lo + 1..hi, new);
                 // The blocks around the change are looked at again.
@@ -1369,6 +1408,47 @@ mod tests {
         assert!(one_sided(&out, &program) <= 0.01);
         assert!(program.iter().all(|&v| dist_to_polyline(v, &out) <= 0.01));
         assert_eq!(*out.last().unwrap(), Vec3::new(1.0, 1.0, 0.0));
+    }
+
+    #[test]
+    fn for_linuxcnc_short_blocks_become_the_programmed_corner_only() {
+        let (program, start, pts) = corner_case();
+        let prog = Program {
+            points: &program,
+            tol_mm: 0.01,
+        };
+        let corner = Vec3::new(1.0, 0.0, 0.0);
+        let grid = std::cell::OnceCell::new();
+        let mut how = Lift {
+            corners_only: true,
+            ..Default::default()
+        };
+        let mut out = pts.clone();
+        lift_short_blocks_in(start, &mut out, 0.03, &prog, &grid, |p| p, &mut how);
+        assert_eq!(how.snapped, vec![corner]);
+        // Nothing but the programmed corner is put in: no midpoint, no stretched block.
+        assert!(
+            out.iter().all(|p| *p == corner || pts.contains(p)),
+            "{out:?}"
+        );
+        assert!(out.contains(&corner) && out.len() < pts.len(), "{out:?}");
+        let mut path = vec![start];
+        path.extend_from_slice(&out);
+        assert!(one_sided(&path, &program) <= 0.01);
+        // Not where the corner would end the chain (LinuxCNC ran such a last line at half
+        // the acceleration): the transition as the chain's last blocks stays.
+        let mut tail = pts[..pts.len() - 1].to_vec();
+        let before = tail.clone();
+        let mut how = Lift {
+            corners_only: true,
+            ..Default::default()
+        };
+        lift_short_blocks_in(start, &mut tail, 0.03, &prog, &grid, |p| p, &mut how);
+        assert!(tail.len() < 2 || tail[tail.len() - 2] != corner, "{tail:?}");
+        assert!(
+            tail.iter().all(|p| *p == corner || before.contains(p)),
+            "{tail:?}"
+        );
     }
 
     #[test]

@@ -240,6 +240,9 @@ pub(crate) struct Floor {
     pub min_block_mm: f64,
     /// The grid over `program`, built when a first short block needs it.
     pub grid: std::cell::OnceCell<crate::chain::SegGrid>,
+    /// LinuxCNC: short blocks are lifted only to the programmed corner, which gets a `P`
+    /// of its own.
+    pub corner: Option<crate::rewrite::CornerBlend>,
 }
 
 /// How a [`MotionWriter`] writes: units, modes and which axes it may write.
@@ -417,7 +420,9 @@ pub struct RunEnds {
 /// ([`BLEND_SCHEDULE_STEPS_PER_HALVING`]); a block gets the larger of its two vertices'
 /// (a blend uses the smaller `P` of its two blocks), and the run's ends, and the run's
 /// own `P` after the chain, get all of it. `P` is never larger than the run's, so the
-/// tolerance budget is unchanged.
+/// tolerance budget is unchanged (the schedule's own shares; a programmed corner put in
+/// place of short blocks gets more, [`crate::rewrite::CornerBlend`], checked by the
+/// model of the executed path).
 ///
 /// Measured (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, tol 0.01), butterfly_1000 nurbs: one `P`
 /// 9.520 s; shares for the feed alone, with the radius estimated as chord over turn,
@@ -674,6 +679,37 @@ impl BlendSchedule {
         }
         s
     }
+}
+
+/// The `P` of each written point from `start` through `pts` that is a programmed corner
+/// put in place of short blocks (`snapped`), as (index, `P`): the corner is on the
+/// programmed path, so its blend may take what the tolerance leaves after the lines
+/// beside it, which stray from the program by at most half their far ends' distance
+/// `dist` where the blend runs (it takes at most half of each), up to `c.max_p_mm`. A
+/// corner that would get no more than the run's `P` is left out, and so are the last
+/// point and two corners two points apart.
+fn corner_blends(
+    start: Vec3,
+    pts: &[Vec3],
+    snapped: &[Vec3],
+    c: crate::rewrite::CornerBlend,
+    dist: impl Fn(Vec3) -> f64,
+) -> Vec<(usize, f64)> {
+    if snapped.is_empty() {
+        return Vec::new();
+    }
+    let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
+    let corner = |k: usize| k + 1 < pts.len() && snapped.contains(&pts[k]);
+    // Two corners two points apart would raise both blocks of the point between them,
+    // which is not on the program: neither gets more.
+    (0..pts.len().saturating_sub(1))
+        .filter(|&k| corner(k) && !corner(k + 2) && (k < 2 || !corner(k - 2)))
+        .map(|k| {
+            let far = dist(at(k)).max(dist(pts[k + 1]));
+            (k, c.max_p_mm.min(c.total_mm - 0.5 * far))
+        })
+        .filter(|&(_, p)| p > c.run_p_mm)
+        .collect()
 }
 
 /// LinuxCNC's blend arc between two lines (blendmath.c `blendComputeParameters`): tangent
@@ -1413,12 +1449,17 @@ impl MotionWriter {
                 &mut pts,
             );
         }
+        let mut corners = Vec::new();
         if let Some(f) = lift.then(|| self.floor.take()).flatten() {
             let program = crate::chain::Program {
                 points: &f.program,
                 tol_mm: f.tol_mm,
             };
             let start = self.written_pos();
+            let mut how = crate::chain::Lift {
+                corners_only: f.corner.is_some(),
+                ..Default::default()
+            };
             crate::chain::lift_short_blocks_in(
                 start,
                 &mut pts,
@@ -1426,13 +1467,25 @@ impl MotionWriter {
                 &program,
                 &f.grid,
                 |p| self.rounded(p),
+                &mut how,
             );
+            if let (Some(c), Some(grid)) = (f.corner, f.grid.get()) {
+                let dist = |p: Vec3| program.dist_near(grid, p);
+                corners = corner_blends(start, &pts, &how.snapped, c, dist);
+            }
             self.floor = Some(f);
         }
-        let shares = match self.blend_schedule.filter(|_| lift) {
+        let mut shares = match self.blend_schedule.filter(|_| lift) {
             Some(s) => s.shares(self.written_pos(), &pts, m.feed_mm_s, self.chain_ends),
             None => Vec::new(),
         };
+        if let (Some(s), false) = (self.blend_schedule, shares.is_empty()) {
+            for (k, p_mm) in corners {
+                for j in [k, k + 1] {
+                    shares[j] = shares[j].max(p_mm / s.p_mm);
+                }
+            }
+        }
         for (k, p) in pts.into_iter().enumerate() {
             if let Some(&share) = shares.get(k) {
                 self.set_blend_share(share, out)?;
@@ -1841,6 +1894,38 @@ mod tests {
             ends(RunEnd::Joins(plunge), RunEnd::Free),
         );
         assert!(plunged[2] < at_feed && plunged[2] >= rest[2], "{plunged:?}");
+    }
+
+    #[test]
+    fn a_programmed_corner_gets_what_the_lines_beside_it_leave_of_the_tolerance() {
+        let c = crate::rewrite::CornerBlend {
+            total_mm: 0.0099,
+            max_p_mm: 0.0095,
+            run_p_mm: 0.004,
+        };
+        let v = |x: f64, y: f64| Vec3::new(x, y, 0.0);
+        let (start, corner) = (v(0.0, 0.0), v(1.0, 0.0));
+        let pts = [corner, v(1.0, 1.0), v(2.0, 1.0)];
+        // The far ends stray 0.004 mm: the blend, which takes at most half of each line,
+        // runs where they stray 0.002 at most, and gets 0.0099 - 0.002.
+        let blends = corner_blends(start, &pts, &[corner], c, |_| 0.004);
+        assert_eq!(blends.len(), 1);
+        assert_eq!(blends[0].0, 0);
+        assert!((blends[0].1 - 0.0079).abs() < 1e-12, "{blends:?}");
+        // On the program both sides: the cap.
+        assert_eq!(
+            corner_blends(start, &pts, &[corner], c, |_| 0.0),
+            vec![(0, 0.0095)]
+        );
+        // No more than the run's P, or the chain's last point: none.
+        assert!(corner_blends(start, &pts, &[corner], c, |_| 0.012).is_empty());
+        assert!(corner_blends(start, &pts, &[v(2.0, 1.0)], c, |_| 0.0).is_empty());
+        // Two points apart: the point between would get both blocks raised.
+        let two = [corner, v(1.0, 1.0), v(2.0, 1.0), v(2.0, 2.0)];
+        let both = corner_blends(start, &two, &[corner, v(2.0, 1.0)], c, |_| 0.0);
+        assert!(both.is_empty(), "{both:?}");
+        let next = corner_blends(start, &two, &[corner, v(1.0, 1.0)], c, |_| 0.0);
+        assert_eq!(next, vec![(0, 0.0095), (1, 0.0095)]);
     }
 
     #[test]
