@@ -410,8 +410,9 @@ pub struct RunEnds {
 /// (a forward and a backward pass). Along what the blends take of a block LinuxCNC
 /// accelerates with [`LINUXCNC_TANGENTIAL_ACC_SHARE`] of the acceleration, the full rate
 /// only on the line they leave, so the estimate is made again with the shares the last
-/// one gave ([`BLEND_SCHEDULE_SPEED_PASSES`] passes at most). So the vertices where LinuxCNC brakes for, or leaves,
-/// a tight turn get a small `P` as well, not only the gently curved ones at full feed. A
+/// one gave ([`BLEND_SCHEDULE_SPEED_PASSES`] passes at most). So the vertices where
+/// LinuxCNC brakes for, or leaves, a tight turn get a small `P` as well, not only the
+/// gently curved ones at full feed. A
 /// block whose blends would leave less than [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of
 /// line at that speed is consumed whatever its `P` (blendmath.c `blendCheckConsume`): its
 /// vertices keep all of `P`, for the radius. Vertices LinuxCNC joins as tangent (below
@@ -513,8 +514,8 @@ impl BlendSchedule {
     }
 
     /// The share of each block's length LinuxCNC's blends take under the blocks' shares
-    /// `block` of `P`: all of a block they leave less than its gap of line, and at the
-    /// run's ends, whose other side is not known here, as much as LinuxCNC ever takes.
+    /// `block` of `P` (a blend uses the smaller of its two blocks'): all of a block they
+    /// consume.
     fn arc_shares(
         &self,
         blocks: &[Vec3],
@@ -522,24 +523,40 @@ impl BlendSchedule {
         block: &[f64],
         speed: &[f64],
     ) -> Vec<f64> {
+        let vertex: Vec<f64> = block.windows(2).map(|w| w[0].min(w[1])).collect();
+        let last = speed.last().copied().unwrap_or(0.0);
+        let at = |k: usize| speed.get(k).copied().unwrap_or(last);
+        self.blend_takes(blocks, blends, &vertex, at)
+            .into_iter()
+            .zip(blocks)
+            .map(|((taken, consumed), b)| if consumed { 1.0 } else { taken / b.norm() })
+            .collect()
+    }
+
+    /// What LinuxCNC's blends take of each block (mm), the share of `P` at the vertex
+    /// ending block k being `vertex[k]`, and whether they consume it: a block whose blends
+    /// leave less than LinuxCNC's gap of straight line at `speed(k)` is consumed whatever
+    /// its `P` (blendmath.c `blendCheckConsume`, at the blend's speed). At the run's ends,
+    /// whose other side is not known here, the blend takes as much as LinuxCNC ever does.
+    fn blend_takes(
+        &self,
+        blocks: &[Vec3],
+        blends: &[VertexBlend],
+        vertex: &[f64],
+        speed: impl Fn(usize) -> f64,
+    ) -> Vec<(f64, bool)> {
         let gap_s = LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
-        let n = blocks.len();
         // What the blend at the vertex ending block k takes of each line.
         let taken = |k: usize| match blends.get(k) {
-            Some(b) => b.reach_mm(block[k].min(block[k + 1]) * self.p_mm),
+            Some(b) => b.reach_mm(vertex[k] * self.p_mm),
             None => 0.5 * blocks[k].norm(),
         };
-        (0..n)
+        (0..blocks.len())
             .map(|k| {
                 let len = blocks[k].norm();
                 let before = if k == 0 { 0.5 * len } else { taken(k - 1) };
                 let arcs = before + taken(k);
-                let v = speed.get(k).or(speed.last()).copied().unwrap_or(0.0);
-                if len - arcs < gap_s * v {
-                    1.0
-                } else {
-                    arcs / len
-                }
+                (arcs, len - arcs < gap_s * speed(k))
             })
             .collect()
     }
@@ -565,26 +582,15 @@ impl BlendSchedule {
             })
             .map(|x| if x.is_nan() { 1.0 } else { x })
             .collect();
-        // A block whose blends leave less than LinuxCNC's gap of straight line is consumed
-        // whatever its `P` (blendmath.c `blendCheckConsume`, at the blend's speed): its
-        // vertices keep all of it, for the radius.
-        let gap_s = LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
-        // What the blend at the vertex ending block k takes of each line; at the run's
-        // ends, whose other side is not known here, as much as LinuxCNC ever takes.
-        let taken = |k: usize, x: &[f64]| match blends.get(k) {
-            Some(b) => b.reach_mm(x[k] * self.p_mm),
-            None => 0.5 * blocks[k].norm(),
-        };
+        // A consumed block's vertices keep all of `P`, for the radius.
+        let at = |k: usize| speed.get(k).copied().unwrap_or(v);
         let mut share = need.clone();
-        for k in 0..n {
-            let len = blocks[k].norm();
-            let before = if k == 0 {
-                0.5 * len
-            } else {
-                taken(k - 1, &need)
-            };
-            let left = len - before - taken(k, &need);
-            if left < gap_s * speed.get(k).copied().unwrap_or(v) {
+        for (k, (_, consumed)) in self
+            .blend_takes(blocks, blends, &need, at)
+            .into_iter()
+            .enumerate()
+        {
+            if consumed {
                 share[k] = 1.0;
                 if k > 0 {
                     share[k - 1] = 1.0;
