@@ -32,7 +32,7 @@ use crate::{Plane, Program};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
-use ncsmooth::path::{Move, Toolpath, Units};
+use ncsmooth::path::{Move, MoveKind, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
 #[derive(Clone, Debug, PartialEq)]
@@ -941,20 +941,24 @@ impl<'a> Region<'a> {
 
     /// What moves next to the run in the program (`orig`), for the blend schedule's speed
     /// estimate: the programmed moves just before and after it, at rest at the program's
-    /// ends.
+    /// ends and next to a rapid (LinuxCNC never blends a rapid with a feed move: tp.c
+    /// `tpCheckCanonType` stops between them).
     fn run_ends(&self, orig: &[&Move]) -> RunEnds {
         let Some((lo, hi)) = self.program else {
             return RunEnds::default();
         };
-        let joins = |t: Option<Vec3>| t.map_or(RunEnd::Free, RunEnd::Joins);
+        let joins = |m: &Move, t: Option<Vec3>| match m.kind {
+            MoveKind::Rapid => RunEnd::Rest,
+            MoveKind::Feed => t.map_or(RunEnd::Free, RunEnd::Joins),
+        };
         RunEnds {
             before: match lo.checked_sub(1) {
                 None => RunEnd::Rest,
-                Some(j) => joins(orig[j].segment.end_tangent()),
+                Some(j) => joins(orig[j], orig[j].segment.end_tangent()),
             },
             after: match orig.get(hi) {
                 None => RunEnd::Rest,
-                Some(m) => joins(m.segment.start_tangent()),
+                Some(m) => joins(m, m.segment.start_tangent()),
             },
         }
     }

@@ -604,3 +604,56 @@ fn nurbs_are_written_exactly_span_by_span() {
         "{dev:?}\n{text}"
     );
 }
+
+/// LinuxCNC never blends a rapid with a feed move (tp.c `tpCheckCanonType` stops between
+/// them): a run after a rapid starts from rest, and the blend schedule gives its first
+/// vertices the little `P` that speed needs, where a feed line tangent to it lets it
+/// start at speed.
+#[test]
+fn a_run_after_a_rapid_starts_from_rest() {
+    let first_ps = |lead_in: &str| -> Vec<f64> {
+        let src = format!("G21\nG0 X10 Y-5 F3000\n{lead_in} Y0\nG3 X-10 Y0 I-10 J0\nM2\n");
+        let p = parse(&src).unwrap();
+        // Only the arc is smoothed: flattened into lines.
+        let mut out = p.toolpath.clone();
+        out.blocks.clear();
+        for b in &p.toolpath.blocks {
+            match b {
+                Block::Move(m) if matches!(m.segment, Segment::Arc(_)) => {
+                    let mut prev = m.segment.start();
+                    m.segment.flatten(1e-3, &mut |q| {
+                        out.blocks
+                            .push(Block::Move(m.with_segment(Line::new(prev, q))));
+                        prev = q;
+                    });
+                }
+                other => out.blocks.push(other.clone()),
+            }
+        }
+        let opts = RewriteOptions::new(4, 1e-4)
+            .with_blend(Some(Blend {
+                p_mm: 0.004,
+                q_mm: 0.0,
+            }))
+            .with_blend_limits(Some(500.0), Some(50.0))
+            .with_emit(Emit::Lines {
+                min_block_mm: 0.0,
+                min_block_s: 0.0,
+            });
+        let t = String::from_utf8(rewrite(src.as_bytes(), &p, &out, &opts).unwrap()).unwrap();
+        let run = t.split_once("G3").map_or(t.as_str(), |(_, r)| r);
+        let run = t.split_once(" Y0\n").map_or(run, |(_, r)| r);
+        run.lines()
+            .filter_map(|l| l.strip_prefix("G64 P"))
+            .map(|l| l.split(' ').next().unwrap().parse().unwrap())
+            .take(3)
+            .collect()
+    };
+    let rest = first_ps("G0");
+    let moving = first_ps("G1");
+    // From rest the vertex after the run's first block (which keeps all of P) gets the
+    // least share, 1/16; arriving at speed along the tangent feed line it needs more.
+    assert_eq!(rest.first(), Some(&0.004), "{rest:?}");
+    assert_eq!(rest.get(1), Some(&0.00025), "{rest:?}");
+    assert!(moving.len() > 1 && moving[1] > 0.0003, "{moving:?}");
+}
