@@ -414,6 +414,10 @@ pub struct SmoothRunReport {
     pub input_continuity: Continuity,
     /// True when the written path is within tol.
     pub within_tol: bool,
+    /// Where the written program's extra axes (A B C U V W E) differ from the program's,
+    /// before an extra-axis event or at the end ([`ncsmooth::verify::extra_axes_kept`],
+    /// within the rounding); `None` when they agree.
+    pub extra_axes_mismatch: Option<ncsmooth::verify::ExtraAxesMismatch>,
     /// Seconds per stage.
     pub timings: Timings,
 }
@@ -818,6 +822,8 @@ fn smooth_program_with(
         read_back(&gcode, name, &program.toolpath, accuracy).map_err(unreadable)?
     };
     let blocks = BlockReport::of(src, &program.toolpath, &gcode, &as_written, dialect);
+    let extra_axes_mismatch =
+        ncsmooth::verify::extra_axes_kept(&program.toolpath, &as_written, rounding);
     let executed = match (blend, loop_mode) {
         (Some(b), false) => {
             let written = ncsmooth_gcode::parse_bytes(&gcode, name, &Default::default())
@@ -870,6 +876,7 @@ fn smooth_program_with(
                 None => budget.holds(&dev),
             },
         deviation: dev,
+        extra_axes_mismatch,
         loops,
         continuity: cont,
         input_continuity: input_cont,
@@ -946,6 +953,15 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
                 r.rounding_mm
             );
         }
+    }
+    if let Some(m) = r.extra_axes_mismatch {
+        bail!(
+            "verification failed: axis {} is at {} in the written program where the program has {} (before line {}, 0: at the end); nothing written",
+            ncsmooth::path::EXTRA_AXIS_NAMES[m.axis],
+            m.written,
+            m.program,
+            m.line
+        );
     }
     if !r.within_tol {
         let blend = r.blend.map_or(0.0, |b| b.p_mm + b.q_mm);

@@ -32,7 +32,7 @@ use crate::{Plane, Program};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
-use ncsmooth::path::{Move, MoveKind, Toolpath, Units};
+use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
 #[derive(Clone, Debug, PartialEq)]
@@ -662,6 +662,7 @@ pub fn rewrite(
         "\n"
     };
     let extra_mask = program.toolpath.extra_axes_mask;
+    let extra_before = extra_before_lines(&program.toolpath, lines.len());
     let mut s: Vec<u8> = Vec::with_capacity(src.len() + src.len() / 4 + 256);
     let write_header = |s: &mut Vec<u8>| {
         if let Some(h) = &opts.header {
@@ -708,7 +709,10 @@ pub fn rewrite(
         }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
-                Region::open(&mut s, eol, info, first_move(i), extra_mask, opts)
+                let first = first_move(i);
+                let line = first.map_or(i, |m| (m.line as usize).saturating_sub(1));
+                let extra = extra_before.get(line).copied().flatten();
+                Region::open(&mut s, eol, info, first, (extra_mask, extra), opts)
             });
             r.pending.extend_from_slice(w);
             r.add_program(orig_by[i]);
@@ -771,6 +775,32 @@ pub fn rewrite(
     }
     write_header(&mut s);
     Ok(s)
+}
+
+/// Per line, the program's extra-axis values before its first block (a move's values
+/// are those at its end; an extra-axis move or reset sets them), `None` before any.
+fn extra_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<Option<ExtraAxes>> {
+    let mut out: Vec<Option<ExtraAxes>> = vec![None; n_lines];
+    let mut seen = vec![false; n_lines];
+    let mut last: Option<ExtraAxes> = None;
+    for b in &tp.blocks {
+        let (line, after) = match b {
+            Block::Move(m) => (m.line, m.extra.or(last)),
+            Block::Event(e) => match e.kind {
+                EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } => {
+                    (e.line, Some(to))
+                }
+                _ => (e.line, last),
+            },
+        };
+        let l = (line as usize).saturating_sub(1);
+        if l < n_lines && !seen[l] {
+            seen[l] = true;
+            out[l] = last;
+        }
+        last = after;
+    }
+    out
 }
 
 /// `G80` as a motion code times ten ([`crate::source::WriteState::motion10`]).
@@ -997,7 +1027,7 @@ impl<'a> Region<'a> {
         eol: &'static str,
         info: &LineInfo,
         first: Option<&Move>,
-        extra_mask: u8,
+        (extra_mask, extra_at_start): (u8, Option<ExtraAxes>),
         opts: &RewriteOptions,
     ) -> Region<'a> {
         let st = info.before;
@@ -1061,7 +1091,9 @@ impl<'a> Region<'a> {
             } else {
                 0
             };
-            w.assume_at(start, m.extra.as_ref());
+            // The machine's extra axes where the run starts: the program's before the
+            // first replaced move (a move's own values are those at its end).
+            w.assume_at(start, extra_at_start.or(m.extra).as_ref());
         }
         if !st.absolute {
             s.extend_from_slice(b"G90");

@@ -1389,7 +1389,7 @@ impl MotionWriter {
         n: &Nurbs,
         out: &mut W,
     ) -> Result<bool, fmt::Error> {
-        if !self.nurbs_curve_able(n) {
+        if !self.nurbs_curve_able(n) || self.moves_extra(m) {
             return Ok(false);
         }
         let order = n.degree() + 1;
@@ -1428,6 +1428,12 @@ impl MotionWriter {
         Ok(true)
     }
 
+    /// Whether `m` carries extra axes the writer writes: `G5` and `G5.2` may not move
+    /// them (LinuxCNC's rule), so such a curve is flattened, its lines carrying them.
+    fn moves_extra(&self, m: &Move) -> bool {
+        m.extra.is_some() && self.frame.extra_mask != 0
+    }
+
     /// Whether `s` is a cubic Bézier that `G5` carries: G5 is on, the curve lies in an XY
     /// plane (Z constant) and X and Y may be written.
     fn g5_able(&self, s: &Segment) -> bool {
@@ -1458,7 +1464,7 @@ impl MotionWriter {
         b: &CubicBez,
         out: &mut W,
     ) -> Result<bool, fmt::Error> {
-        if !self.g5_curve_able(b) {
+        if !self.g5_curve_able(b) || self.moves_extra(m) {
             return Ok(false);
         }
         let start = self.written_pos();

@@ -527,13 +527,9 @@ fn long_lines_join_the_pieces_of_a_run() {
     );
 }
 
-/// `G5`: the B-spline method's corner curves (cubic Béziers) are written exactly: read
-/// back, each equals the smoothed curve at sampled parameters to 1e-9 mm (9 decimals, the
-/// control-point offsets with two more).
-#[test]
-fn g5_carries_the_bspline_corners_exactly() {
+/// `src` parsed, and smoothed by the B-spline method within 0.05 mm.
+fn bspline_smoothed(src: &str) -> (Program, Toolpath) {
     use ncsmooth::smooth::{smooth, Method, SmoothOptions};
-    let src = "G21 G90 G17\nG0 X0 Y0 Z1\nG1 X10 F600\nG1 X10 Y10\nG1 X0 Y12\nM2\n";
     let p = parse(src).unwrap();
     let opts = SmoothOptions {
         method: Method::Bspline,
@@ -541,6 +537,16 @@ fn g5_carries_the_bspline_corners_exactly() {
         ..Default::default()
     };
     let smoothed = smooth(&p.toolpath, &opts).unwrap().toolpath;
+    (p, smoothed)
+}
+
+/// `G5`: the B-spline method's corner curves (cubic Béziers) are written exactly: read
+/// back, each equals the smoothed curve at sampled parameters to 1e-9 mm (9 decimals, the
+/// control-point offsets with two more).
+#[test]
+fn g5_carries_the_bspline_corners_exactly() {
+    let src = "G21 G90 G17\nG0 X0 Y0 Z1\nG1 X10 F600\nG1 X10 Y10\nG1 X0 Y12\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
     let curves = |tp: &Toolpath| -> Vec<ncsmooth::geom::CubicBez> {
         tp.moves()
             .filter_map(|m| match &m.segment {
@@ -656,4 +662,68 @@ fn a_run_after_a_rapid_starts_from_rest() {
     assert_eq!(rest.first(), Some(&0.004), "{rest:?}");
     assert_eq!(rest.get(1), Some(&0.00025), "{rest:?}");
     assert!(moving.len() > 1 && moving[1] > 0.0003, "{moving:?}");
+}
+
+/// A replaced run begins with the extra axes where the program has them before it, not
+/// at its first move's end: a slicer's extrusion run after an un-retract (`G1 E1`, an
+/// event), written as one move, extrudes from 1 to 4 (the writer once took the move's
+/// own end value for the start and wrote no `E` at all: the printer would have moved
+/// without extruding).
+#[test]
+fn a_run_starts_from_the_programs_extrusion() {
+    let src = "G21 G90 M82\nG92 E0\nG1 X0 Y0 F3000\nG1 E1 F1800\n\
+               G1 X10 Y0 E2 F600\nG1 X20 Y0 E3\nG1 X30 Y0 E4\nG1 E3 F1800\nM2\n";
+    let p = parse(src).unwrap();
+    let mut out = p.toolpath.clone();
+    out.blocks.clear();
+    for b in &p.toolpath.blocks {
+        match b {
+            Block::Move(m) if m.line == 5 => {
+                let mut whole = m.with_segment(Line::new(
+                    m.segment.start(),
+                    ncsmooth::geom::Vec3::new(30.0, 0.0, 0.0),
+                ));
+                whole.extra = p.toolpath.moves().last().and_then(|l| l.extra);
+                out.blocks.push(Block::Move(whole));
+            }
+            Block::Move(m) if m.line == 6 || m.line == 7 => {}
+            other => out.blocks.push(other.clone()),
+        }
+    }
+    let t = String::from_utf8(
+        rewrite(src.as_bytes(), &p, &out, &RewriteOptions::new(4, 1e-4)).unwrap(),
+    )
+    .unwrap();
+    let q = parse(&t).unwrap();
+    let last = q.toolpath.moves().last().unwrap();
+    assert_eq!(last.segment.end().x, 30.0, "{t}");
+    assert_eq!(last.extra.map(|e| e[6]), Some(4.0), "{t}");
+    assert!(t.contains("X30 E4"), "{t}");
+}
+
+/// `G5` may not move an extra axis (LinuxCNC's rule, which the reader follows): a
+/// slicer's extruding corner curve is flattened into lines that carry its `E`, so the
+/// extrusion at the end is the program's.
+#[test]
+fn g5_leaves_extruding_curves_to_lines() {
+    let src = "G21 G90 G17 M82\nG92 E0\nG0 X0 Y0 Z1\nG1 X10 E1 F600\nG1 X10 Y10 E2\n\
+               G1 X0 Y12 E3\nG1 E2 F1800\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
+    assert!(smoothed
+        .moves()
+        .any(|m| matches!(m.segment, Segment::CubicBez(_)) && m.extra.is_some()));
+    let g5 = RewriteOptions::new(4, 1e-3).with_emit(Emit::G5 {
+        min_block_mm: 0.0,
+        min_block_s: 0.0,
+    });
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &g5).unwrap()).unwrap();
+    assert!(!text.contains("G5"), "{text}");
+    let q = parse(&text).unwrap();
+    assert_eq!(
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
+        None,
+        "{text}"
+    );
+    let last = q.toolpath.moves().last().unwrap();
+    assert_eq!(last.extra.map(|e| e[6]), Some(3.0), "{text}");
 }

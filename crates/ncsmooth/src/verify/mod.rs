@@ -5,10 +5,12 @@
 //! * [`PathIndex`]: nearest distance from points to a path, for measurements built
 //!   elsewhere.
 //! * [`continuity`]: position, tangent and curvature continuity at every joint.
+//! * [`extra_axes_kept`]: a written program's extra axes where the program has them.
 
 mod bvh;
 mod continuity;
 mod deviation;
+mod extra_axes;
 mod nearest;
 mod prim;
 
@@ -17,4 +19,5 @@ pub use continuity::{
     CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,
 };
 pub use deviation::{deviation, deviation_segments, deviation_with_vertex_distances, Deviation};
+pub use extra_axes::{extra_axes_kept, ExtraAxesMismatch};
 pub use nearest::PathIndex;
