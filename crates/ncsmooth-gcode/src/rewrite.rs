@@ -32,7 +32,7 @@ use crate::{Plane, Program};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
-use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath, Units};
+use ncsmooth::path::{Block, ExtraAxes, Move, MoveKind, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
 #[derive(Clone, Debug, PartialEq)]
@@ -784,21 +784,16 @@ fn extra_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<Option<ExtraAxes>> {
     let mut seen = vec![false; n_lines];
     let mut last: Option<ExtraAxes> = None;
     for b in &tp.blocks {
-        let (line, after) = match b {
-            Block::Move(m) => (m.line, m.extra.or(last)),
-            Block::Event(e) => match e.kind {
-                EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } => {
-                    (e.line, Some(to))
-                }
-                _ => (e.line, last),
-            },
+        let line = match b {
+            Block::Move(m) => m.line,
+            Block::Event(e) => e.line,
         };
         let l = (line as usize).saturating_sub(1);
         if l < n_lines && !seen[l] {
             seen[l] = true;
             out[l] = last;
         }
-        last = after;
+        last = b.extra_after(last);
     }
     out
 }

@@ -352,6 +352,9 @@ pub const BLEND_SCHEDULE_SPEED_PASSES: usize = 4;
 /// Servo periods of straight line LinuxCNC leaves between two blend arcs; a shorter
 /// remainder is consumed by the blends (tp.c `ARC_BLEND_GAP_CYCLES`).
 pub const LINUXCNC_BLEND_GAP_CYCLES: f64 = 4.0;
+/// [`LINUXCNC_BLEND_GAP_CYCLES`] in seconds.
+const LINUXCNC_BLEND_GAP_S: f64 =
+    LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
 
 /// LinuxCNC's default `[TRAJ] ARC_BLEND_KINK_RATIO`: the share of the axes' acceleration
 /// a kink between two moves may take before they are blended rather than joined as
@@ -667,10 +670,8 @@ impl BlendSchedule {
     fn split_room(&self, plan: &BlendPlan, k: usize, share: f64, before: bool) -> f64 {
         let p = share * self.p_mm;
         let reach = plan.blends[k].reach_mm(p);
-        let reach = if reach.is_nan() { 0.0 } else { reach };
-        let gap_s = LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
         let gap = if before {
-            reach + gap_s * plan.speed[k]
+            reach + LINUXCNC_BLEND_GAP_S * plan.speed[k]
         } else {
             0.0
         };
@@ -728,7 +729,6 @@ impl BlendSchedule {
         vertex: &[f64],
         speed: impl Fn(usize) -> f64,
     ) -> Vec<(f64, bool)> {
-        let gap_s = LINUXCNC_BLEND_GAP_CYCLES * crate::dialect::LINUXCNC_SERVO_PERIOD_S;
         // What the blend at the vertex ending block k takes of each line.
         let taken = |k: usize| match blends.get(k) {
             Some(b) => b.reach_mm(vertex[k] * self.p_mm),
@@ -739,7 +739,7 @@ impl BlendSchedule {
                 let len = blocks[k].norm();
                 let before = if k == 0 { 0.5 * len } else { taken(k - 1) };
                 let arcs = before + taken(k);
-                (arcs, len - arcs < gap_s * speed(k))
+                (arcs, len - arcs < LINUXCNC_BLEND_GAP_S * speed(k))
             })
             .collect()
     }

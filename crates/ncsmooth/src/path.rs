@@ -155,6 +155,21 @@ pub enum Block {
     Event(Event),
 }
 
+impl Block {
+    /// The extra-axis values after this block, given those before it: a move's own (its
+    /// values at its end) where it has them, an extra-axis move's or reset's target, and
+    /// otherwise unchanged.
+    pub fn extra_after(&self, before: Option<ExtraAxes>) -> Option<ExtraAxes> {
+        match self {
+            Block::Move(m) => m.extra.or(before),
+            Block::Event(e) => match e.kind {
+                EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } => Some(to),
+                _ => before,
+            },
+        }
+    }
+}
+
 /// Units the program was written in (geometry is always stored in mm).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum Units {

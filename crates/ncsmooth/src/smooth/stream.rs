@@ -22,7 +22,7 @@
 
 use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport};
 use crate::geom::{ParamCurve, Segment};
-use crate::path::{Block, EventKind, ExtraAxes, Move, MoveKind};
+use crate::path::{Block, ExtraAxes, Move, MoveKind};
 use crate::verify::deviation_segments;
 
 /// Entries kept in the per-run lists of the report.
@@ -138,12 +138,13 @@ impl StreamSmoother {
 
     /// Takes the next block of the program; appends to `out` what is ready.
     pub fn push(&mut self, b: Block, out: &mut Vec<Block>) {
+        let extra_after = b.extra_after(self.last_extra);
         match b {
             Block::Move(m) if m.kind == MoveKind::Feed && !m.pinned => {
                 if self.run.is_empty() {
                     self.run_start_extra = self.last_extra;
                 }
-                self.last_extra = m.extra.or(self.last_extra);
+                self.last_extra = extra_after;
                 self.run.push(m);
                 if self.run.len() >= self.stream.window_moves {
                     self.cut(out);
@@ -151,16 +152,7 @@ impl StreamSmoother {
             }
             other => {
                 self.flush(out);
-                match &other {
-                    Block::Move(m) => self.last_extra = m.extra.or(self.last_extra),
-                    Block::Event(e) => {
-                        if let EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } =
-                            e.kind
-                        {
-                            self.last_extra = Some(to);
-                        }
-                    }
-                }
+                self.last_extra = extra_after;
                 out.push(other);
             }
         }

@@ -30,15 +30,12 @@ fn checkpoints(tp: &Toolpath) -> Vec<(u32, &str, Option<ExtraAxes>)> {
     let mut out = Vec::new();
     let mut last: Option<ExtraAxes> = None;
     for b in &tp.blocks {
-        match b {
-            Block::Move(m) => last = m.extra.or(last),
-            Block::Event(e) => {
-                if let EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } = e.kind {
-                    out.push((e.line, e.text.as_str(), last));
-                    last = Some(to);
-                }
+        if let Block::Event(e) = b {
+            if let EventKind::ExtraMove { .. } | EventKind::ExtraReset { .. } = e.kind {
+                out.push((e.line, e.text.as_str(), last));
             }
         }
+        last = b.extra_after(last);
     }
     out.push((0, "", last));
     out
