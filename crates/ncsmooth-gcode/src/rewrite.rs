@@ -663,6 +663,10 @@ pub fn rewrite(
     };
     let extra_mask = program.toolpath.extra_axes_mask;
     let extra_before = extra_before_lines(&program.toolpath, lines.len());
+    let resets_before = extra_resets_before_lines(&program.toolpath, lines.len());
+    // Relative E: what the last run's written increments left the machine ahead of the
+    // program, and the resets before the line it closed at.
+    let mut e_carry: (f64, u32) = (0.0, 0);
     let mut s: Vec<u8> = Vec::with_capacity(src.len() + src.len() / 4 + 256);
     let write_header = |s: &mut Vec<u8>| {
         if let Some(h) = &opts.header {
@@ -712,7 +716,9 @@ pub fn rewrite(
                 let first = first_move(i);
                 let line = first.map_or(i, |m| (m.line as usize).saturating_sub(1));
                 let extra = extra_before.get(line).copied().flatten();
-                Region::open(&mut s, eol, info, first, (extra_mask, extra), opts)
+                let resets = resets_before.get(line).copied().unwrap_or(0);
+                let carry = if resets == e_carry.1 { e_carry.0 } else { 0.0 };
+                Region::open(&mut s, eol, info, first, (extra_mask, extra, carry), opts)
             });
             r.pending.extend_from_slice(w);
             r.add_program(orig_by[i]);
@@ -723,6 +729,7 @@ pub fn rewrite(
         } else {
             if let Some(mut r) = region.take() {
                 r.flush(&mut s, &orig)?;
+                e_carry = (r.w.relative_e_carry(), resets_before[i]);
                 let after = verbatim_at(i);
                 pending_motion = r.close(&mut s, eol, opts.decimals, after);
                 // The runs' bound left in force over copied feed lines, in the program's
@@ -796,6 +803,27 @@ fn extra_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<Option<ExtraAxes>> {
         last = b.extra_after(last);
     }
     out
+}
+
+/// Per line (0-based): the extra-axis resets (`G92 E0`) on the lines before it.
+fn extra_resets_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<u32> {
+    let mut at = vec![0u32; n_lines + 1];
+    for b in &tp.blocks {
+        if let Block::Event(e) = b {
+            if matches!(e.kind, ncsmooth::path::EventKind::ExtraReset { .. }) {
+                let l = (e.line as usize).saturating_sub(1).min(n_lines);
+                at[l] += 1;
+            }
+        }
+    }
+    let mut sum = 0;
+    at.iter()
+        .map(|&k| {
+            let before = sum;
+            sum += k;
+            before
+        })
+        .collect()
 }
 
 /// `G80` as a motion code times ten ([`crate::source::WriteState::motion10`]).
@@ -1022,7 +1050,7 @@ impl<'a> Region<'a> {
         eol: &'static str,
         info: &LineInfo,
         first: Option<&Move>,
-        (extra_mask, extra_at_start): (u8, Option<ExtraAxes>),
+        (extra_mask, extra_at_start, e_carry): (u8, Option<ExtraAxes>, f64),
         opts: &RewriteOptions,
     ) -> Region<'a> {
         let st = info.before;
@@ -1088,7 +1116,7 @@ impl<'a> Region<'a> {
             };
             // The machine's extra axes where the run starts: the program's before the
             // first replaced move (a move's own values are those at its end).
-            w.assume_at(start, extra_at_start.or(m.extra).as_ref());
+            w.assume_at(start, extra_at_start.or(m.extra).as_ref(), e_carry);
         }
         if !st.absolute {
             s.extend_from_slice(b"G90");

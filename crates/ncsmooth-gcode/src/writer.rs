@@ -190,7 +190,7 @@ pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) 
                 if e.text.contains('F') {
                     w.forget_feed();
                 }
-                if e.kind == EventKind::Untracked {
+                if matches!(e.kind, EventKind::Untracked { .. }) {
                     w.forget_axes();
                 }
             }
@@ -969,8 +969,11 @@ pub(crate) struct MotionWriter {
     written: Vec3,
     last_extra: [String; 7],
     extra_known: [bool; 7],
-    /// Extra-axis values written last (for interpolation and relative E).
+    /// Extra-axis values written last (for interpolation and relative E: there, what the
+    /// written increments add up to).
     last_extra_val: [f64; 7],
+    /// Relative E: the program's value at the last written increment.
+    last_e_target: f64,
     last_f: String,
     f_known: bool,
     /// The last motion code written (0, 1, 2, 3), if any.
@@ -1066,6 +1069,7 @@ impl MotionWriter {
             last_extra: Default::default(),
             extra_known: [false; 7],
             last_extra_val: [0.0; 7],
+            last_e_target: 0.0,
             last_f: String::new(),
             f_known: false,
             last_motion: None,
@@ -1115,9 +1119,18 @@ impl MotionWriter {
         self.f_known = false;
     }
 
+    /// Relative E (M83): what the written increments add up to less the program's value,
+    /// within half a written unit. A later run's increments start from it
+    /// ([`MotionWriter::assume_at`]), so the rounding never accumulates across runs.
+    pub(crate) fn relative_e_carry(&self) -> f64 {
+        self.last_extra_val[6] - self.last_e_target
+    }
+
     /// Sets the position the reader is at (mm), as if written: axes whose printed value
-    /// does not change are not written again.
-    pub(crate) fn assume_at(&mut self, p: Vec3, extra: Option<&[f64; 7]>) {
+    /// does not change are not written again. With relative E, `e_carry` is what the
+    /// machine's E is ahead of `extra` ([`MotionWriter::relative_e_carry`] of the run
+    /// before, when no reset came between).
+    pub(crate) fn assume_at(&mut self, p: Vec3, extra: Option<&[f64; 7]>, e_carry: f64) {
         for i in 0..3 {
             let v = self.mm_to_units(i, coord(p, i));
             self.fmt(v);
@@ -1127,6 +1140,10 @@ impl MotionWriter {
         self.written = p;
         if let Some(e) = extra {
             self.last_extra_val = *e;
+            self.last_e_target = e[6];
+            if self.frame.e_relative {
+                self.last_extra_val[6] += e_carry;
+            }
             for i in 0..7 {
                 let v = self.extra_units(i, e[i]);
                 self.fmt(v);
@@ -1232,6 +1249,7 @@ impl MotionWriter {
                     let written: f64 = self.scratch.parse().unwrap_or(0.0);
                     self.last_extra_val[i] += written * self.frame.scale;
                 }
+                self.last_e_target = e[i];
                 continue;
             }
             let v = self.extra_units(i, e[i]);

@@ -74,7 +74,7 @@ fn trace(p: &Program, from_line: u32, cycles_only: bool) -> Vec<String> {
                 };
                 out.push(format!("{g} {}", fmt(m.segment.end())));
             }
-            Block::Event(e) if e.kind == EventKind::Untracked => {
+            Block::Event(e) if matches!(e.kind, EventKind::Untracked { .. }) => {
                 prev = None;
                 if e.line >= from_line {
                     out.push(format!("untracked {}", e.text));

@@ -727,3 +727,58 @@ fn g5_leaves_extruding_curves_to_lines() {
     let last = q.toolpath.moves().last().unwrap();
     assert_eq!(last.extra.map(|e| e[6]), Some(3.0), "{text}");
 }
+
+/// A slicer's first extruding move from a position not yet established (here: no move
+/// before it) is copied as programmed, and the run after it starts from its `E` (the
+/// path model once lost it: the run's first line was written without `E`).
+#[test]
+fn a_run_after_an_untracked_extruding_move_keeps_its_extrusion() {
+    let src = "G21 G90 M82\nG1 X-11 Y14 E1.05973 F1080\nG1 X0 Y14 E2\nG1 X1 Y20 E3\n\
+               G1 X-5 Y22 E4\nG1 F3600 E3\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
+    let lines = RewriteOptions::new(4, 1e-3);
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &lines).unwrap()).unwrap();
+    assert!(text.contains("E1.05973"), "{text}");
+    // Every move extrudes (none is written without its E word).
+    for l in text
+        .lines()
+        .filter(|l| l.starts_with("G1 X") || l.starts_with("G1 Y"))
+    {
+        assert!(l.contains(" E"), "{l}\n{text}");
+    }
+    let q = parse(&text).unwrap();
+    assert_eq!(
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
+        None,
+        "{text}"
+    );
+}
+
+/// Relative E (M83): each run's increments are rounded to the written decimals, and the
+/// next run starts from what they add up to, not from the program's value: over many
+/// runs between two resets the rounding does not accumulate (it once reached 0.00017 mm
+/// on a relative copy of cncjs_sample_slic3r, twice the rounding).
+#[test]
+fn relative_extrusion_rounding_does_not_add_up_over_runs() {
+    let mut src = String::from("G21 G90 M83\nG92 E0\nG0 X0 Y0 Z0.2\n");
+    for k in 0..40 {
+        let y = k as f64;
+        src.push_str(&format!(
+            "G1 X10 Y{y} E0.123456 F1200\nG1 X10 Y{} E0.0123456\nG1 X0 Y{} E0.123456\nM106 S255\n",
+            y + 0.5,
+            y + 0.6
+        ));
+    }
+    src.push_str("G1 E-1 F1800\nG92 E0\nM2\n");
+    let (p, smoothed) = bspline_smoothed(&src);
+    let text = String::from_utf8(
+        rewrite(src.as_bytes(), &p, &smoothed, &RewriteOptions::new(4, 1e-3)).unwrap(),
+    )
+    .unwrap();
+    let q = parse(&text).unwrap();
+    assert_eq!(
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 0.5e-4 + 1e-9),
+        None,
+        "{text}"
+    );
+}

@@ -376,7 +376,7 @@ fn slicer_codes_and_extra_axes() {
     let kinds: Vec<&EventKind> = p
         .toolpath
         .events()
-        .filter(|e| e.kind != EventKind::Untracked)
+        .filter(|e| !matches!(e.kind, EventKind::Untracked { .. }))
         .map(|e| &e.kind)
         .collect();
     let e = |v: f64| [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, v];

@@ -355,7 +355,10 @@ fn splines_from_unknown_positions_are_untracked() {
         .collect();
     assert_eq!(
         kinds,
-        [format!("{:?}", EventKind::Untracked), "cubic_bezier".into()]
+        [
+            format!("{:?}", EventKind::Untracked { extra: None }),
+            "cubic_bezier".into()
+        ]
     );
     // A NURBS whose first point is unknown; its last point is absolute, so known after.
     let src = "G21 G90 F100\nG5.2 X1 Y1 P1\nX2 Y0 P1\nG5.3\nG1 X3\n";

@@ -126,7 +126,12 @@ pub enum EventKind {
     /// commanded since the start, a frame change, a tool-length change). The controller
     /// runs it; a planner stops before it and starts again from the next known position.
     /// The text names the block; writers with the source copy it verbatim.
-    Untracked,
+    Untracked {
+        /// Extra-axis values after it, when the program uses extra axes and all of them
+        /// are known (a slicer's first extruding move from a position not yet established
+        /// moves `E`: a run after it starts from there).
+        extra: Option<ExtraAxes>,
+    },
     /// The program switches units (G20/G21). Geometry stays in mm; writers that keep the
     /// program's units follow it. No motion and no stop.
     Units(Units),
@@ -164,6 +169,7 @@ impl Block {
             Block::Move(m) => m.extra.or(before),
             Block::Event(e) => match e.kind {
                 EventKind::ExtraMove { to, .. } | EventKind::ExtraReset { to } => Some(to),
+                EventKind::Untracked { extra: Some(to) } => Some(to),
                 _ => before,
             },
         }

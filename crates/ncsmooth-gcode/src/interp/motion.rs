@@ -310,7 +310,8 @@ impl Interp<'_> {
         }
     }
 
-    /// A motion ncsmooth cannot place: kept as an event (written as programmed).
+    /// A motion ncsmooth cannot place: kept as an event (written as programmed), with the
+    /// extra axes after it where they are known (call it once the state has moved).
     pub(crate) fn untracked(&mut self, why: &str) {
         let mut text = self.raw.trim().to_string();
         if text.is_empty() {
@@ -320,7 +321,11 @@ impl Interp<'_> {
         if self.stats.untracked_first.is_none() {
             self.stats.untracked_first = Some((self.line_no, why.to_string()));
         }
-        self.event(EventKind::Untracked, text);
+        let extra_known = self
+            .f
+            .all_known(((self.tp.extra_axes_mask & 0b11_1111) as u16) << 3);
+        let extra = (self.tp.extra_axes_mask != 0 && extra_known).then(|| self.extra_axes());
+        self.event(EventKind::Untracked { extra }, text);
     }
 
     /// G0/G1 (and G53 G0/G1).
@@ -346,11 +351,11 @@ impl Interp<'_> {
             } else {
                 "a move from or to a position not established in this frame"
             };
-            self.untracked(why);
             self.go_to(&t);
             if let Some(e) = e {
                 self.e = e;
             }
+            self.untracked(why);
             // What LinuxCNC prints: its interpreter's idea of the target (the placeholders
             // of unknown axes are that idea after a cycle it runs differently).
             self.canon(|it| {
@@ -486,8 +491,11 @@ impl Interp<'_> {
             for l in [la, lb, b'R'] {
                 let _ = self.val(l);
             }
-            self.untracked("an arc from or to a position not established in this frame");
             self.go_to(&t);
+            if let Some(e) = e {
+                self.e = e;
+            }
+            self.untracked("an arc from or to a position not established in this frame");
             return Ok(());
         }
         let start = axes_vec(&self.f.pos);

@@ -139,7 +139,7 @@ pub fn continuity_joints(path: &Toolpath) -> (Continuity, Vec<Joint>) {
         let m = match b {
             Block::Move(m) => m,
             // Motion ncsmooth cannot place: the next move starts a new path, no joint.
-            Block::Event(e) if e.kind == crate::path::EventKind::Untracked => {
+            Block::Event(e) if matches!(e.kind, crate::path::EventKind::Untracked { .. }) => {
                 prev = None;
                 continue;
             }
