@@ -50,6 +50,7 @@
 pub mod budget;
 pub mod canon;
 pub mod chain;
+pub mod chain_extra;
 pub mod dialect;
 pub mod error;
 pub mod executed;

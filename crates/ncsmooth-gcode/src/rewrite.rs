@@ -156,7 +156,8 @@ pub enum Emit {
     Native,
     /// Each run of feed moves at one feed (lines, arcs and curves alike) as the longest
     /// `G1` blocks whose chord, rounding included, stays within the chord tolerance
-    /// ([`crate::chain`]); moves with extra axes (E, A..W) are written move by move.
+    /// ([`crate::chain`]); `E` is carried along the blocks ([`crate::chain_extra`]), moves
+    /// with other extra axes (A..W) are written move by move.
     Lines {
         /// A last block of a run shorter than `min_block_mm`, or than the run's feed
         /// times `min_block_s`, is merged or balanced with the one before when the

@@ -36,11 +36,15 @@
 //! property test uses 6). Fewer than 3 decimals can make a reader reject arcs whose
 //! rounded radii differ by more than its tolerance.
 
+use crate::chain_extra::ExtraProfile;
 use ncsmooth::decimal::POW10_U64;
 use ncsmooth::geom::{Arc, CubicBez, Flatten, Nurbs, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Block, EventKind, Move, MoveKind, Toolpath, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
 use std::fmt::{self, Write as _};
+
+/// The bit of `E` (a printer's extrusion) in [`Frame::extra_mask`].
+const E_AXIS_BIT: u8 = 1 << 6;
 
 /// Most digits after the point the writer prints; more are clamped to this. 1e-12 mm is
 /// below what an f64 coordinate of a few metres resolves.
@@ -994,6 +998,8 @@ pub(crate) struct MotionWriter {
     pub run_ends: RunEnds,
     /// What moves next to the chain being written.
     chain_ends: RunEnds,
+    /// The extra axes along the chain being written, when its moves carry them.
+    chain_extra: Option<ExtraProfile>,
 }
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
@@ -1081,6 +1087,7 @@ impl MotionWriter {
             blend_share: 1.0,
             run_ends: RunEnds::default(),
             chain_ends: RunEnds::default(),
+            chain_extra: None,
         };
         w.forget_axes();
         w
@@ -1124,6 +1131,16 @@ impl MotionWriter {
     /// ([`MotionWriter::assume_at`]), so the rounding never accumulates across runs.
     pub(crate) fn relative_e_carry(&self) -> f64 {
         self.last_extra_val[6] - self.last_e_target
+    }
+
+    /// The program's extra-axis values at the last written point (with relative E, what
+    /// the written increments add up to is [`MotionWriter::relative_e_carry`] away).
+    fn program_extra(&self) -> [f64; 7] {
+        let mut e = self.last_extra_val;
+        if self.frame.e_relative {
+            e[6] = self.last_e_target;
+        }
+        e
     }
 
     /// Sets the position the reader is at (mm), as if written: axes whose printed value
@@ -1338,15 +1355,17 @@ impl MotionWriter {
     }
 
     /// Whether `m` may join a chain of long G1 blocks, long arcs aside
-    /// ([`MotionWriter::chainable_at`]): a feed move without extra axes (their values are
-    /// distributed along each programmed move) outside diameter mode, and no curve that
-    /// `G5`/`G5.2` carries.
+    /// ([`MotionWriter::chainable_at`]): a feed move outside diameter mode, without extra
+    /// axes or with `E` the only one written (a printer's extrusion, carried along the
+    /// blocks by [`ExtraProfile`]; a rotary axis is not a length of the path), and no
+    /// curve that `G5`/`G5.2` carries.
     fn chain_candidate(&self, m: &Move) -> bool {
+        let native_curve =
+            !self.moves_extra(m) && (self.g5_able(&m.segment) || self.nurbs_able(&m.segment));
         m.kind == MoveKind::Feed
-            && m.extra.is_none()
+            && (m.extra.is_none() || self.frame.extra_mask & !E_AXIS_BIT == 0)
             && !self.frame.diameter
-            && !self.g5_able(&m.segment)
-            && !self.nurbs_able(&m.segment)
+            && !native_curve
     }
 
     /// Whether `moves[k]` may join a chain. A long arc stays native when the dialect keeps
@@ -1584,21 +1603,33 @@ impl MotionWriter {
         let mut dense = std::mem::take(&mut self.points);
         dense.clear();
         dense.push(moves[0].segment.start());
-        let mut push = |p: Vec3| {
-            if dense.last() != Some(&p) {
-                dense.push(p);
-            }
-        };
+        let mut profile = moves
+            .iter()
+            .any(|m| self.moves_extra(m))
+            .then(|| ExtraProfile::new(self.program_extra()));
         for m in moves {
+            let mut push = |p: Vec3| {
+                if dense.last() != Some(&p) {
+                    dense.push(p);
+                }
+            };
             match &m.segment {
                 Segment::Line(l) => push(l.p1),
                 s => s.flatten(dense_tol, &mut push),
+            }
+            if let Some(profile) = profile.as_mut() {
+                profile.push_move(&dense, m.extra.as_ref());
             }
         }
         // Lines are their own dense points: merging may use the whole chord.
         let all_lines = moves.iter().all(|m| matches!(m.segment, Segment::Line(_)));
         let tol = if all_lines { chord } else { chord - dense_tol };
-        let hard = crate::chain::sharp_points(&dense, tol);
+        let mut hard = crate::chain::sharp_points(&dense, tol);
+        if let Some(profile) = profile.as_mut() {
+            profile.rate_breaks(&mut hard);
+            profile.attach(&dense, &hard);
+        }
+        self.chain_extra = profile;
         let r = if arcs {
             self.write_arc_pieces(moves[0], &dense, &hard, tol, out)
         } else {
@@ -1615,7 +1646,17 @@ impl MotionWriter {
             )
         };
         self.points = dense;
+        self.chain_extra = None;
         r
+    }
+
+    /// The extra-axis values a written point `p` of the chain being written carries
+    /// ([`ExtraProfile::at`]); `None` when its moves carry none.
+    fn chain_values(&mut self, p: Vec3) -> Option<[f64; 7]> {
+        let len_mm = self.written_pos().dist(p);
+        let snap_mm = 0.1f64.powi(self.decimals() as i32) * self.frame.scale;
+        let profile = self.chain_extra.as_mut()?;
+        Some(profile.at(p, len_mm, snap_mm))
     }
 
     /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]);
@@ -1695,12 +1736,14 @@ impl MotionWriter {
         for (k, p) in pts.into_iter().enumerate() {
             if let Some(Some(split)) = splits.get(k) {
                 self.set_blend_share(split.shares.0, out)?;
-                self.linear(m, split.point, None, out)?;
+                let values = self.chain_values(split.point);
+                self.linear(m, split.point, values.as_ref(), out)?;
                 self.set_blend_share(split.shares.1, out)?;
             } else if let Some(&share) = shares.get(k) {
                 self.set_blend_share(share, out)?;
             }
-            self.linear(m, p, None, out)?;
+            let values = self.chain_values(p);
+            self.linear(m, p, values.as_ref(), out)?;
         }
         self.set_blend_share(1.0, out)
     }
@@ -1758,7 +1801,10 @@ impl MotionWriter {
         crate::chain::fit_arcs(dense, hard, tol, |p| self.rounded(p), &mut pieces);
         for piece in pieces {
             match piece {
-                crate::chain::Piece::Line { end, .. } => self.linear(m, end, None, out)?,
+                crate::chain::Piece::Line { end, .. } => {
+                    let values = self.chain_values(end);
+                    self.linear(m, end, values.as_ref(), out)?
+                }
                 crate::chain::Piece::Arc {
                     from,
                     to,
@@ -1768,8 +1814,9 @@ impl MotionWriter {
                 } => {
                     let start = self.written_pos();
                     let arc = Arc::from_center(start, end, center, Vec3::Z, ccw, 0);
+                    let values = self.chain_values(end);
                     let written = match arc {
-                        Some(a) => self.try_arc(m, &a, out)?,
+                        Some(a) => self.try_arc(m, &a, values.as_ref(), out)?,
                         None => false,
                     };
                     if !written {
@@ -1796,7 +1843,7 @@ impl MotionWriter {
         match &m.segment {
             Segment::Line(l) => self.linear(m, l.p1, m.extra.as_ref(), out),
             Segment::Arc(a) => {
-                if !self.try_arc(m, a, out)? {
+                if !self.try_arc(m, a, m.extra.as_ref(), out)? {
                     self.flattened(m, out)?;
                 }
                 Ok(())
@@ -1822,6 +1869,7 @@ impl MotionWriter {
         &mut self,
         m: &Move,
         a: &Arc,
+        extra: Option<&[f64; 7]>,
         out: &mut W,
     ) -> Result<bool, fmt::Error> {
         let n = a.normal();
@@ -1927,7 +1975,7 @@ impl MotionWriter {
         if turns > 1.0 {
             let _ = write!(self.line, " P{}", turns as u64);
         }
-        self.extras(m.extra.as_ref());
+        self.extras(extra);
         self.feed(m);
         self.last_motion = Some(if ccw { 3 } else { 2 });
         self.end(out)?;
@@ -1943,7 +1991,7 @@ impl MotionWriter {
         m.segment.flatten(chord, &mut |p| pts.push(p));
         // Extra axes: interpolate from the previous values by cumulative chord length.
         let total: f64 = pts.windows(2).map(|w| w[0].dist(w[1])).sum();
-        let e0 = self.last_extra_val;
+        let e0 = self.program_extra();
         let mut acc = 0.0;
         let mut r = Ok(());
         for k in 1..pts.len() {

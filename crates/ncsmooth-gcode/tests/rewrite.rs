@@ -13,8 +13,8 @@
 //!   next line that relies on it must get it back;
 //! * the moves a subprogram runs are pinned, and its lines come back byte for byte.
 
-use ncsmooth::geom::{Flatten, Line, ParamCurve, Segment};
-use ncsmooth::path::{Block, Toolpath};
+use ncsmooth::geom::{Flatten, Line, ParamCurve, Segment, Vec3};
+use ncsmooth::path::{Block, MoveKind, Toolpath, EXTRA_RATE_VARIANCE};
 use ncsmooth_gcode::rewrite::{Blend, Emit};
 use ncsmooth_gcode::{parse_str, rewrite, ParseOptions, Program, RewriteOptions};
 use proptest::prelude::*;
@@ -726,6 +726,53 @@ fn g5_leaves_extruding_curves_to_lines() {
     );
     let last = q.toolpath.moves().last().unwrap();
     assert_eq!(last.extra.map(|e| e[6]), Some(3.0), "{text}");
+}
+
+/// A slicer's extruding moves are chained into long blocks like any others (each piece
+/// once was written on its own: Marlin got 5-17 times the program's blocks), with `E`
+/// carried along: collinear moves at one flow become one block, and a vertex where the
+/// flow changes (here it triples at X4) is written with the program's `E` there.
+#[test]
+fn extruding_runs_are_chained_with_their_flow() {
+    let src = "G21 G90 G17 M82\nG92 E0\nG0 X0 Y0 Z0.2\nG1 X1 E0.1 F1200\nG1 X2 E0.2\n\
+               G1 X3 E0.3\nG1 X4 E0.4\nG1 X5 E0.7\nG1 X6 E1\nG1 X7 E1.3\nG1 X7 Y1 E1.4\n\
+               G1 X0 Y1 E2.1\nG1 E1.1 F1800\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
+    let lines = RewriteOptions::new(4, 1e-3).with_emit(Emit::Lines {
+        min_block_mm: 0.0,
+        min_block_s: 0.0,
+    });
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &lines).unwrap()).unwrap();
+    let q = parse(&text).unwrap();
+    assert_eq!(
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
+        None,
+        "{text}"
+    );
+    // One block to the flow change (the smoothed run passes within 0.05 mm of X4).
+    let ends: Vec<(Vec3, f64)> = q
+        .toolpath
+        .moves()
+        .filter(|m| m.kind == MoveKind::Feed)
+        .map(|m| (m.segment.end(), m.extra.unwrap()[6]))
+        .collect();
+    let (first, e_first) = ends[0];
+    assert!(
+        first.dist(Vec3::new(4.0, 0.0, 0.2)) < 1e-3 && e_first == 0.4,
+        "{text}"
+    );
+    // On to the corner, E follows the program's 0.3 per mm of path (within the rate
+    // variance a chain allows; the corner's curve is shorter than the program's path).
+    for w in ends.windows(2) {
+        let ((a, ea), (b, eb)) = (w[0], w[1]);
+        if b.x < 6.5 && b.y.abs() < 0.1 {
+            let rate = (eb - ea) / a.dist(b);
+            assert!(
+                (rate - 0.3).abs() < 0.3 * EXTRA_RATE_VARIANCE,
+                "{rate} {text}"
+            );
+        }
+    }
 }
 
 /// A slicer's first extruding move from a position not yet established (here: no move

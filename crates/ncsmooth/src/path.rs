@@ -5,8 +5,9 @@
 //! mm/s.
 //!
 //! Extra axes (A B C U V W E) ride along: each move carries their end values and they are
-//! interpolated linearly with the move's arc length. Smoothing never alters them: a
-//! smoothing method treats a change of any extra axis as a chain break (see `smooth`).
+//! interpolated linearly with the move's arc length. Smoothing never alters them (see
+//! `smooth`), and no smoothed curve or written block spans a change of their rate
+//! ([`extra_rates_agree`]): a slicer's flow stays where the program puts it.
 
 use crate::geom::{Flatten, ParamCurve, ParamCurveArclen, Segment, Vec3};
 use serde::{Deserialize, Serialize};
@@ -17,6 +18,33 @@ pub const EXTRA_AXIS_NAMES: [char; 7] = ['A', 'B', 'C', 'U', 'V', 'W', 'E'];
 /// End values of the extra axes of a move (units as programmed: degrees for rotary axes,
 /// mm for linear ones and for E).
 pub type ExtraAxes = [f64; 7];
+
+/// Largest relative change of an extra axis's rate (its change per mm of path) between
+/// the moves one smoothed curve or one written block may span. ArcWelder's default
+/// "extrusion rate variance": a slicer's flow (E per mm) is kept where it changes (a
+/// perimeter next to a travel or a thinner feature), not spread over both.
+pub const EXTRA_RATE_VARIANCE: f64 = 0.05;
+
+/// Each extra axis's change per mm of path from `start` to `end` over `len_mm` (a change
+/// without length is NaN, which agrees with nothing).
+pub fn extra_rate(start: &ExtraAxes, end: &ExtraAxes, len_mm: f64) -> ExtraAxes {
+    std::array::from_fn(|i| {
+        let d = end[i] - start[i];
+        match (d == 0.0, len_mm > 0.0) {
+            (true, _) => 0.0,
+            (false, true) => d / len_mm,
+            (false, false) => f64::NAN,
+        }
+    })
+}
+
+/// Whether two extra-axis rates ([`extra_rate`]) agree within [`EXTRA_RATE_VARIANCE`] of
+/// the larger on every axis.
+pub fn extra_rates_agree(a: &ExtraAxes, b: &ExtraAxes) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(&x, &y)| x == y || (x - y).abs() <= EXTRA_RATE_VARIANCE * x.abs().max(y.abs()))
+}
 
 /// Rapid (G0) or feed (G1/G2/G3 and curves made from them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

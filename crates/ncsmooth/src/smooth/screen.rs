@@ -20,12 +20,18 @@
 //! one, `L_m = 2 chord_share tol cos(theta/2) / (1 - sin(theta/2))`; a fixed cap can still
 //! be set with `max_len_mm`.
 //!
+//! A junction where an extra axis's rate changes ([`crate::path::extra_rates_agree`]: a
+//! slicer's flow, E per mm, between a perimeter and a travel or a thinner feature) never
+//! qualifies: a run's curve carries the extra axes linearly in its length, so one run
+//! spanning both would spread the flow of one over the other.
+//!
 //! A *run* is a maximal sequence of consecutive qualifying junctions; a run of `k`
 //! junctions covers `k + 1` lines and `k + 2` points. Runs with fewer than
 //! [`ScreenOptions::min_lines`] lines are dropped. Zero-length lines never qualify.
 
 use super::Chain;
-use crate::geom::Segment;
+use crate::geom::{ParamCurveArclen, Segment};
+use crate::path::{extra_rate, extra_rates_agree, ExtraAxes};
 
 /// Screening settings (Wu et al. eqs. 6-9).
 #[derive(Clone, Debug, PartialEq)]
@@ -164,7 +170,7 @@ pub fn screen(chain: &Chain<'_>, opts: &ScreenOptions, tol_mm: f64) -> Vec<Run> 
                 junction_qualifies(da.norm(), db.norm(), theta, opts, tol_mm)
             }
             _ => false,
-        };
+        } && same_flow(chain, i);
         match (ok, start) {
             (true, None) => start = Some(i),
             (false, Some(s)) => {
@@ -180,10 +186,35 @@ pub fn screen(chain: &Chain<'_>, opts: &ScreenOptions, tol_mm: f64) -> Vec<Run> 
     runs
 }
 
+/// Whether moves `i` and `i + 1` of the chain move their extra axes at one rate (within
+/// [`crate::path::EXTRA_RATE_VARIANCE`]); true without extra axes.
+fn same_flow(chain: &Chain<'_>, i: usize) -> bool {
+    let rate = |k: usize| -> Option<ExtraAxes> {
+        let m = &chain.moves[k];
+        let end = m.extra?;
+        let start = match k {
+            0 => chain.start_extra.unwrap_or(end),
+            _ => chain.moves[k - 1].extra.unwrap_or(end),
+        };
+        Some(extra_rate(
+            &start,
+            &end,
+            m.segment.arclen(FLOW_ARCLEN_ACCURACY_MM),
+        ))
+    };
+    match (rate(i), rate(i + 1)) {
+        (Some(a), Some(b)) => extra_rates_agree(&a, &b),
+        _ => true,
+    }
+}
+
+/// Accuracy (mm) of the move lengths [`same_flow`] divides by (lines are exact).
+const FLOW_ARCLEN_ACCURACY_MM: f64 = 1e-6;
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::{Line, Vec3};
+    use crate::geom::{Line, ParamCurve, Vec3};
     use crate::path::Move;
 
     fn chain_of(pts: &[Vec3]) -> Vec<Move> {
@@ -248,5 +279,46 @@ mod tests {
             open_ends: [false; 2],
         };
         assert!(screen(&chain, &ScreenOptions::default(), 0.01).is_empty());
+    }
+
+    /// A slicer's curve whose flow (E per mm) triples halfway is two runs, each fitted on
+    /// its own; a flow that varies within the allowed variance is one.
+    #[test]
+    fn a_change_of_flow_splits_a_run() {
+        let r = 20.0;
+        let pts: Vec<Vec3> = (0..=20)
+            .map(|i| {
+                let a = (i as f64) * 0.02;
+                Vec3::new(r * a.sin(), r - r * a.cos(), 0.0)
+            })
+            .collect();
+        let runs = |second_rate: f64| {
+            let mut moves = chain_of(&pts);
+            let mut e = 0.0;
+            for (k, m) in moves.iter_mut().enumerate() {
+                let rate = if k < 10 { 0.05 } else { second_rate };
+                e += rate * m.segment.end().dist(m.segment.start());
+                let mut x = [0.0; 7];
+                x[6] = e;
+                m.extra = Some(x);
+            }
+            let chain = Chain {
+                moves: &moves,
+                start_extra: Some([0.0; 7]),
+                open_ends: [false; 2],
+            };
+            screen(&chain, &ScreenOptions::default(), 0.01)
+        };
+        assert_eq!(
+            runs(0.15),
+            vec![
+                Run { first: 0, last: 9 },
+                Run {
+                    first: 10,
+                    last: 19
+                }
+            ]
+        );
+        assert_eq!(runs(0.052), vec![Run { first: 0, last: 19 }]);
     }
 }
