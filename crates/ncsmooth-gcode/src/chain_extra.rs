@@ -142,6 +142,15 @@ impl ExtraProfile {
         self.value_at(self.cursor, self.last_s_mm)
     }
 
+    /// The values at dense point `k` (a written point that is one, as a fitted arc's end:
+    /// its chord says nothing of how far along the chain it is).
+    pub fn at_dense(&mut self, k: usize) -> ExtraAxes {
+        let k = k.min(self.values.len() - 1);
+        self.cursor = k.saturating_sub(1);
+        self.last_s_mm = self.s_mm[k].max(self.last_s_mm);
+        self.values[k]
+    }
+
     /// The values at arc length `s_mm` on dense segment `seg` or the next ones.
     fn value_at(&self, mut seg: usize, s_mm: f64) -> ExtraAxes {
         let n = self.s_mm.len();

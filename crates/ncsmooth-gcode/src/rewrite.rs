@@ -32,7 +32,7 @@ use crate::{Plane, Program};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
-use ncsmooth::path::{Block, ExtraAxes, Move, MoveKind, Toolpath, Units};
+use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath, Units};
 
 /// Settings of [`rewrite()`].
 #[derive(Clone, Debug, PartialEq)]
@@ -664,7 +664,17 @@ pub fn rewrite(
     };
     let extra_mask = program.toolpath.extra_axes_mask;
     let extra_before = extra_before_lines(&program.toolpath, lines.len());
-    let resets_before = extra_resets_before_lines(&program.toolpath, lines.len());
+    let resets_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
+        matches!(k, EventKind::ExtraReset { .. })
+    });
+    let setters_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
+        matches!(
+            k,
+            EventKind::ExtraMove { .. }
+                | EventKind::ExtraReset { .. }
+                | EventKind::Untracked { extra: Some(_) }
+        )
+    });
     // Relative E: what the last run's written increments left the machine ahead of the
     // program, and the resets before the line it closed at.
     let mut e_carry: (f64, u32) = (0.0, 0);
@@ -688,12 +698,31 @@ pub fn rewrite(
             return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
         }
     }
-    // The first smoothed move of the run of changed lines starting at `i`.
+    // The first smoothed move of the run of changed lines starting at `i` (its index).
     let first_move = |i: usize| {
         (i..lines.len())
             .take_while(|&j| changed[j])
             .find(|&j| out_by[j].1 > out_by[j].0)
-            .map(|j| out[out_by[j].0])
+            .map(|j| out_by[j].0)
+    };
+    // The extra axes where smoothed move `k` starts: at the end of the smoothed move before
+    // it (a curve may have carried them past the line the run starts on: a slicer's wipe
+    // begun in the corner before it), or the program's before its line where an extra-axis
+    // event came between.
+    let extra_at_start = |k: usize| -> Option<ExtraAxes> {
+        let line = (out[k].line as usize).saturating_sub(1);
+        let program = extra_before.get(line).copied().flatten();
+        let Some(prev) = k.checked_sub(1).map(|p| out[p]) else {
+            return program;
+        };
+        let after_prev = ((prev.line as usize).min(line)).min(setters_before.len() - 1);
+        let set_between =
+            setters_before[line.min(setters_before.len() - 1)] != setters_before[after_prev];
+        if set_between {
+            program
+        } else {
+            prev.extra.or(program)
+        }
     };
     let mut region: Option<Region> = None;
     let mut runs_bound_over: Option<crate::source::PathMode> = None;
@@ -714,9 +743,10 @@ pub fn rewrite(
         }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
-                let first = first_move(i);
+                let k = first_move(i);
+                let first = k.map(|k| out[k]);
                 let line = first.map_or(i, |m| (m.line as usize).saturating_sub(1));
-                let extra = extra_before.get(line).copied().flatten();
+                let extra = k.and_then(extra_at_start);
                 let resets = resets_before.get(line).copied().unwrap_or(0);
                 let carry = if resets == e_carry.1 { e_carry.0 } else { 0.0 };
                 Region::open(&mut s, eol, info, first, (extra_mask, extra, carry), opts)
@@ -806,12 +836,16 @@ fn extra_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<Option<ExtraAxes>> {
     out
 }
 
-/// Per line (0-based): the extra-axis resets (`G92 E0`) on the lines before it.
-fn extra_resets_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<u32> {
+/// Per line (0-based): the events of the kinds `counted` on the lines before it.
+fn extra_events_before_lines(
+    tp: &Toolpath,
+    n_lines: usize,
+    counted: impl Fn(&EventKind) -> bool,
+) -> Vec<u32> {
     let mut at = vec![0u32; n_lines + 1];
     for b in &tp.blocks {
         if let Block::Event(e) = b {
-            if matches!(e.kind, ncsmooth::path::EventKind::ExtraReset { .. }) {
+            if counted(&e.kind) {
                 let l = (e.line as usize).saturating_sub(1).min(n_lines);
                 at[l] += 1;
             }

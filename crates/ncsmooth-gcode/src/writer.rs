@@ -1659,6 +1659,12 @@ impl MotionWriter {
         Some(profile.at(p, len_mm, snap_mm))
     }
 
+    /// The extra-axis values at dense point `k` of the chain being written
+    /// ([`ExtraProfile::at_dense`]); `None` when its moves carry none.
+    fn chain_values_at(&mut self, k: usize) -> Option<[f64; 7]> {
+        Some(self.chain_extra.as_mut()?.at_dense(k))
+    }
+
     /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]);
     /// with `lift` and a [`Floor`], short blocks are then lifted against the program.
     #[allow(clippy::too_many_arguments)]
@@ -1801,8 +1807,8 @@ impl MotionWriter {
         crate::chain::fit_arcs(dense, hard, tol, |p| self.rounded(p), &mut pieces);
         for piece in pieces {
             match piece {
-                crate::chain::Piece::Line { end, .. } => {
-                    let values = self.chain_values(end);
+                crate::chain::Piece::Line { end, to } => {
+                    let values = self.chain_values_at(to);
                     self.linear(m, end, values.as_ref(), out)?
                 }
                 crate::chain::Piece::Arc {
@@ -1814,7 +1820,7 @@ impl MotionWriter {
                 } => {
                     let start = self.written_pos();
                     let arc = Arc::from_center(start, end, center, Vec3::Z, ccw, 0);
-                    let values = self.chain_values(end);
+                    let values = self.chain_values_at(to);
                     let written = match arc {
                         Some(a) => self.try_arc(m, &a, values.as_ref(), out)?,
                         None => false,

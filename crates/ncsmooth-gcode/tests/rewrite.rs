@@ -829,3 +829,65 @@ fn relative_extrusion_rounding_does_not_add_up_over_runs() {
         "{text}"
     );
 }
+
+/// `--emit arcs` on a slicer's ring of short extruding lines: the arcs fitted through it
+/// carry the ring's extrusion (an arc's end once took the E at its chord's length along
+/// the ring, nearly none for a whole ring, and the ring was written without E).
+#[test]
+fn fitted_arcs_carry_the_extrusion_of_what_they_replace() {
+    let mut src = String::from("G21 G90 M82\nG92 E0\nG0 X6 Y0 Z0.2\nG1 X6 Y0 F1800\n");
+    let n = 72;
+    for k in 1..=n {
+        let a = std::f64::consts::TAU * k as f64 / n as f64;
+        src.push_str(&format!(
+            "G1 X{:.4} Y{:.4} E{:.5}\n",
+            6.0 * a.cos(),
+            6.0 * a.sin(),
+            0.02 * k as f64
+        ));
+    }
+    src.push_str("G1 E0.5 F2100\nM2\n");
+    let p = parse(&src).unwrap();
+    // A chord of 0.008 mm holds the ring's 0.0057 mm sagitta: arcs fit.
+    let opts = RewriteOptions::new(4, 0.008)
+        .with_emit(Emit::Arcs)
+        .with_rewrite_unchanged(true);
+    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &p.toolpath, &opts).unwrap()).unwrap();
+    let arcs: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("G2 ") || l.starts_with("G3 "))
+        .collect();
+    assert!(
+        !arcs.is_empty() && arcs.iter().all(|l| l.contains(" E")),
+        "{text}"
+    );
+    let q = parse(&text).unwrap();
+    assert_eq!(
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
+        None,
+        "{text}"
+    );
+}
+
+/// A slicer's wipe (PrusaSlicer, relative E): the corner curve between the last extruding
+/// line and the wipe carries part of the wipe's retraction, and the wipe's own lines are
+/// written after the copied `;WIPE_START` and `G1 F8640` lines: they start from where the
+/// curve left E, not from the program's E before their line (which counted the wipe's
+/// retraction twice: 0.06 mm on a PrusaSlicer-like ring).
+#[test]
+fn a_wipe_after_a_copied_line_starts_where_the_curve_left_the_extrusion() {
+    let src = "G21 G90 M83\nG92 E0\nG0 X0 Y0 Z0.2\nG1 X10 Y0 E0.5 F1800\nG1 X20 Y1 E0.5\n\
+               ;WIPE_START\nG1 F8640\nG1 X30 Y3 E-0.4\nG1 X40 Y6 E-0.4\n;WIPE_END\n\
+               G1 E-0.2 F2100\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
+    let text = String::from_utf8(
+        rewrite(src.as_bytes(), &p, &smoothed, &RewriteOptions::new(4, 1e-3)).unwrap(),
+    )
+    .unwrap();
+    let q = parse(&text).unwrap();
+    assert_eq!(
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
+        None,
+        "{text}"
+    );
+}

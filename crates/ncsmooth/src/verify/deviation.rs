@@ -76,10 +76,22 @@ impl Deviation {
 }
 
 /// Deviation between two toolpaths (all moves, rapids included), within `accuracy` mm.
+///
+/// A zero-length line is no path: it is left out on both sides. Its one point is where
+/// the machine already is, the end of the move before it or of a motion neither side can
+/// place (after a `G28`, a slicer's repeated `G1 Z0.2` with X and Y not yet established
+/// sits at the reader's placeholder for them), and a writer skips it.
 pub fn deviation(output: &Toolpath, programmed: &Toolpath, accuracy: f64) -> Deviation {
-    let out: Vec<(&Segment, u32)> = output.moves().map(|m| (&m.segment, m.line)).collect();
-    let prog: Vec<(&Segment, u32)> = programmed.moves().map(|m| (&m.segment, m.line)).collect();
+    let (out, prog) = (with_length(output), with_length(programmed));
     deviation_segments(&out, &prog, accuracy)
+}
+
+/// The moves of `tp` but its zero-length lines, with their source lines.
+fn with_length(tp: &Toolpath) -> Vec<(&Segment, u32)> {
+    tp.moves()
+        .filter(|m| !matches!(&m.segment, Segment::Line(l) if l.p0 == l.p1))
+        .map(|m| (&m.segment, m.line))
+        .collect()
 }
 
 /// Deviation between two sequences of segments tagged with source lines.
@@ -374,6 +386,28 @@ mod tests {
             .enumerate()
             .map(|(i, s)| (s, i as u32 + 1))
             .collect()
+    }
+
+    /// A zero-length line is no path: a slicer's repeated `G1 Z0.2` before X and Y are
+    /// established sits at the reader's placeholder for them, 10 mm from where the first
+    /// ring starts, and a writer skips it (it once failed every smoothed print).
+    #[test]
+    fn a_zero_length_line_is_no_path() {
+        use crate::path::{Block, Move, Toolpath};
+        let z = Vec3::new(0.0, 0.0, 0.2);
+        let (a, b) = (Vec3::new(10.0, 0.0, 0.2), Vec3::new(20.0, 0.0, 0.2));
+        let path = |moves: Vec<Line>| {
+            let mut tp = Toolpath::new(Vec3::ZERO);
+            for (k, l) in moves.into_iter().enumerate() {
+                tp.blocks
+                    .push(Block::Move(Move::feed(l, Some(10.0), k as u32 + 1)));
+            }
+            tp
+        };
+        let program = path(vec![Line::new(z, z), Line::new(a, b)]);
+        let written = path(vec![Line::new(a, b)]);
+        let d = deviation(&written, &program, 1e-9);
+        assert!(d.within(1e-9), "{d:?}");
     }
 
     #[test]
