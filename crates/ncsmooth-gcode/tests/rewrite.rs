@@ -716,14 +716,8 @@ fn g5_leaves_extruding_curves_to_lines() {
         min_block_mm: 0.0,
         min_block_s: 0.0,
     });
-    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &g5).unwrap()).unwrap();
+    let (text, q) = written_keeping_extra_axes(src, &p, &smoothed, &g5, 1e-4);
     assert!(!text.contains("G5"), "{text}");
-    let q = parse(&text).unwrap();
-    assert_eq!(
-        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
-        None,
-        "{text}"
-    );
     let last = q.toolpath.moves().last().unwrap();
     assert_eq!(last.extra.map(|e| e[6]), Some(3.0), "{text}");
 }
@@ -742,13 +736,7 @@ fn extruding_runs_are_chained_with_their_flow() {
         min_block_mm: 0.0,
         min_block_s: 0.0,
     });
-    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &lines).unwrap()).unwrap();
-    let q = parse(&text).unwrap();
-    assert_eq!(
-        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
-        None,
-        "{text}"
-    );
+    let (text, q) = written_keeping_extra_axes(src, &p, &smoothed, &lines, 1e-4);
     // One block to the flow change (the smoothed run passes within 0.05 mm of X4).
     let ends: Vec<(Vec3, f64)> = q
         .toolpath
@@ -784,7 +772,7 @@ fn a_run_after_an_untracked_extruding_move_keeps_its_extrusion() {
                G1 X-5 Y22 E4\nG1 F3600 E3\nM2\n";
     let (p, smoothed) = bspline_smoothed(src);
     let lines = RewriteOptions::new(4, 1e-3);
-    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &smoothed, &lines).unwrap()).unwrap();
+    let (text, _) = written_keeping_extra_axes(src, &p, &smoothed, &lines, 1e-4);
     assert!(text.contains("E1.05973"), "{text}");
     // Every move extrudes (none is written without its E word).
     for l in text
@@ -793,12 +781,6 @@ fn a_run_after_an_untracked_extruding_move_keeps_its_extrusion() {
     {
         assert!(l.contains(" E"), "{l}\n{text}");
     }
-    let q = parse(&text).unwrap();
-    assert_eq!(
-        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
-        None,
-        "{text}"
-    );
 }
 
 /// Relative E (M83): each run's increments are rounded to the written decimals, and the
@@ -818,16 +800,8 @@ fn relative_extrusion_rounding_does_not_add_up_over_runs() {
     }
     src.push_str("G1 E-1 F1800\nG92 E0\nM2\n");
     let (p, smoothed) = bspline_smoothed(&src);
-    let text = String::from_utf8(
-        rewrite(src.as_bytes(), &p, &smoothed, &RewriteOptions::new(4, 1e-3)).unwrap(),
-    )
-    .unwrap();
-    let q = parse(&text).unwrap();
-    assert_eq!(
-        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 0.5e-4 + 1e-9),
-        None,
-        "{text}"
-    );
+    let opts = RewriteOptions::new(4, 1e-3);
+    written_keeping_extra_axes(&src, &p, &smoothed, &opts, 0.5e-4 + 1e-9);
 }
 
 /// `--emit arcs` on a slicer's ring of short extruding lines: the arcs fitted through it
@@ -852,19 +826,13 @@ fn fitted_arcs_carry_the_extrusion_of_what_they_replace() {
     let opts = RewriteOptions::new(4, 0.008)
         .with_emit(Emit::Arcs)
         .with_rewrite_unchanged(true);
-    let text = String::from_utf8(rewrite(src.as_bytes(), &p, &p.toolpath, &opts).unwrap()).unwrap();
+    let (text, _) = written_keeping_extra_axes(&src, &p, &p.toolpath, &opts, 1e-4);
     let arcs: Vec<&str> = text
         .lines()
         .filter(|l| l.starts_with("G2 ") || l.starts_with("G3 "))
         .collect();
     assert!(
         !arcs.is_empty() && arcs.iter().all(|l| l.contains(" E")),
-        "{text}"
-    );
-    let q = parse(&text).unwrap();
-    assert_eq!(
-        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
-        None,
         "{text}"
     );
 }
@@ -880,14 +848,25 @@ fn a_wipe_after_a_copied_line_starts_where_the_curve_left_the_extrusion() {
                ;WIPE_START\nG1 F8640\nG1 X30 Y3 E-0.4\nG1 X40 Y6 E-0.4\n;WIPE_END\n\
                G1 E-0.2 F2100\nM2\n";
     let (p, smoothed) = bspline_smoothed(src);
-    let text = String::from_utf8(
-        rewrite(src.as_bytes(), &p, &smoothed, &RewriteOptions::new(4, 1e-3)).unwrap(),
-    )
-    .unwrap();
+    let opts = RewriteOptions::new(4, 1e-3);
+    written_keeping_extra_axes(src, &p, &smoothed, &opts, 1e-4);
+}
+
+/// `p` (source `src`) written with `out` under `opts` and read back, its extra axes
+/// checked against the program's within `tol_mm` ([`ncsmooth::verify::extra_axes_kept`]).
+fn written_keeping_extra_axes(
+    src: &str,
+    p: &Program,
+    out: &Toolpath,
+    opts: &RewriteOptions,
+    tol_mm: f64,
+) -> (String, Program) {
+    let text = String::from_utf8(rewrite(src.as_bytes(), p, out, opts).unwrap()).unwrap();
     let q = parse(&text).unwrap();
     assert_eq!(
-        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, 1e-4),
+        ncsmooth::verify::extra_axes_kept(&p.toolpath, &q.toolpath, tol_mm),
         None,
         "{text}"
     );
+    (text, q)
 }
