@@ -189,7 +189,8 @@ pub struct SmoothArgs {
     /// nothing].
     #[arg(long)]
     pub chord: Option<f64>,
-    /// Decimals of the written coordinates (0 to 12; rounding uses part of the tolerance).
+    /// Decimals of the written coordinates (0 to 12; rounding uses part of the tolerance;
+    /// a printer's E gets one more).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=MAX_DECIMALS as i64))]
     pub decimals: u8,
     /// Junctions turning less than this (degrees) pass through unchanged.

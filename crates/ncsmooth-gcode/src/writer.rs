@@ -46,6 +46,11 @@ use std::fmt::{self, Write as _};
 /// The bit of `E` (a printer's extrusion) in [`Frame::extra_mask`].
 const E_AXIS_BIT: u8 = 1 << 6;
 
+/// Digits `E` gets beyond the coordinates' (5 at the default 4, as slicers write it): a
+/// block of a smoothed print extrudes a few thousandths of a millimetre of filament, and
+/// rounding that to 4 decimals changed each block's flow by up to a few per cent.
+pub const E_EXTRA_DECIMALS: usize = 1;
+
 /// Most digits after the point the writer prints; more are clamped to this. 1e-12 mm is
 /// below what an f64 coordinate of a few metres resolves.
 pub const MAX_DECIMALS: usize = 12;
@@ -1163,7 +1168,7 @@ impl MotionWriter {
             }
             for i in 0..7 {
                 let v = self.extra_units(i, e[i]);
-                self.fmt(v);
+                self.fmt_extra(i, v);
                 std::mem::swap(&mut self.last_extra[i], &mut self.scratch);
                 self.extra_known[i] = true;
             }
@@ -1203,6 +1208,15 @@ impl MotionWriter {
     fn fmt(&mut self, v: f64) {
         self.scratch.clear();
         let decimals = self.decimals();
+        push_fixed(&mut self.scratch, v, decimals);
+    }
+
+    /// Formats extra axis `i`'s value `v` (written units): `E` with
+    /// [`E_EXTRA_DECIMALS`] more digits than the coordinates.
+    fn fmt_extra(&mut self, i: usize, v: f64) {
+        self.scratch.clear();
+        let more = if i == 6 { E_EXTRA_DECIMALS } else { 0 };
+        let decimals = (self.decimals() + more).min(MAX_DECIMALS);
         push_fixed(&mut self.scratch, v, decimals);
     }
 
@@ -1258,7 +1272,7 @@ impl MotionWriter {
             if relative_e {
                 // M83: the word is the increment from what was written last.
                 let d = self.extra_units(i, e[i] - self.last_extra_val[i]);
-                self.fmt(d);
+                self.fmt_extra(i, d);
                 if self.scratch != "0" {
                     self.line.push_str(" E");
                     self.line.push_str(&self.scratch);
@@ -1270,7 +1284,7 @@ impl MotionWriter {
                 continue;
             }
             let v = self.extra_units(i, e[i]);
-            self.fmt(v);
+            self.fmt_extra(i, v);
             if !self.extra_known[i] || self.scratch != self.last_extra[i] {
                 self.line.push(' ');
                 self.line.push(EXTRA_AXIS_NAMES[i]);

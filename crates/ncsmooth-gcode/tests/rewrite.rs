@@ -870,3 +870,15 @@ fn written_keeping_extra_axes(
     );
     (text, q)
 }
+
+/// `E` is written with one more digit than the coordinates (5 at 4, as slicers write it):
+/// a smoothed block extrudes a few thousandths of a millimetre.
+#[test]
+fn extrusion_keeps_a_slicers_five_decimals() {
+    let src = "G21 G90 M82\nG92 E0\nG0 X0 Y0 Z0.2\nG1 X10 Y0 E0.33267 F1800\n\
+               G1 X10 Y10 E0.66534\nG1 E0.1 F2100\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
+    let opts = RewriteOptions::new(4, 1e-3);
+    let (text, _) = written_keeping_extra_axes(src, &p, &smoothed, &opts, 0.5e-5 + 1e-9);
+    assert!(text.contains(" E0.66534\n"), "{text}");
+}
