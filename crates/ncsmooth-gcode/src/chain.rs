@@ -52,7 +52,7 @@ pub const BREAK_TURN_DEG: f64 = 20.0;
 pub const MAX_SPAN_POINTS: usize = 512;
 
 /// Distance from `p` to the segment `a`-`b`, and the parameter of its foot (unclamped).
-fn seg_dist(p: Vec3, a: Vec3, b: Vec3) -> (f64, f64) {
+pub(crate) fn seg_dist(p: Vec3, a: Vec3, b: Vec3) -> (f64, f64) {
     let d = b - a;
     let l2 = d.norm_sq();
     if l2 <= 0.0 {

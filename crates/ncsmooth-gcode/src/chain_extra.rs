@@ -24,6 +24,7 @@
 //! moves it spans, all within [`EXTRA_RATE_VARIANCE`] of each other. Only the position
 //! is held to the tolerance in millimetres; the extra axes are not a length of the path.
 
+use crate::chain::seg_dist;
 use ncsmooth::geom::Vec3;
 #[cfg(doc)]
 use ncsmooth::path::EXTRA_RATE_VARIANCE;
@@ -124,8 +125,9 @@ impl ExtraProfile {
         let mut best = (f64::INFINITY, self.cursor, self.last_s_mm);
         let mut j = self.cursor;
         while j + 1 < dense.len() && (j == self.cursor || self.s_mm[j] <= reach) {
-            let (d, t) = foot(p, dense[j], dense[j + 1]);
+            let (d, t) = seg_dist(p, dense[j], dense[j + 1]);
             if d < best.0 {
+                let t = t.clamp(0.0, 1.0);
                 let s = self.s_mm[j] + t * (self.s_mm[j + 1] - self.s_mm[j]);
                 best = (d, j, s);
             }
@@ -180,18 +182,6 @@ const SEARCH_SLACK_MM: f64 = 0.1;
 
 fn lerp(a: &ExtraAxes, b: &ExtraAxes, t: f64) -> ExtraAxes {
     std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t)
-}
-
-/// Distance from `p` to the segment `a`-`b` and the parameter of its foot on it.
-fn foot(p: Vec3, a: Vec3, b: Vec3) -> (f64, f64) {
-    let d = b - a;
-    let l2 = d.norm_sq();
-    let t = if l2 > 0.0 {
-        ((p - a).dot(d) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p.dist(a + d * t), t)
 }
 
 #[cfg(test)]

@@ -715,10 +715,9 @@ pub fn rewrite(
         let Some(prev) = k.checked_sub(1).map(|p| out[p]) else {
             return program;
         };
-        let after_prev = ((prev.line as usize).min(line)).min(setters_before.len() - 1);
-        let set_between =
-            setters_before[line.min(setters_before.len() - 1)] != setters_before[after_prev];
-        if set_between {
+        // (`prev.line` is 1-based: the lines after it start there.)
+        let after_prev = (prev.line as usize).min(line);
+        if setters_before.get(line) != setters_before.get(after_prev) {
             program
         } else {
             prev.extra.or(program)

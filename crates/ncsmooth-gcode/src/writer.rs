@@ -1206,18 +1206,25 @@ impl MotionWriter {
 
     /// Formats `v` into the scratch buffer.
     fn fmt(&mut self, v: f64) {
+        self.fmt_to(v, self.decimals());
+    }
+
+    /// Formats `v` into the scratch buffer with `decimals` digits (at most [`MAX_DECIMALS`]).
+    fn fmt_to(&mut self, v: f64, decimals: usize) {
         self.scratch.clear();
-        let decimals = self.decimals();
-        push_fixed(&mut self.scratch, v, decimals);
+        push_fixed(&mut self.scratch, v, decimals.min(MAX_DECIMALS));
+    }
+
+    /// One unit of the last written digit, in mm.
+    fn unit_mm(&self) -> f64 {
+        0.1f64.powi(self.decimals() as i32) * self.frame.scale
     }
 
     /// Formats extra axis `i`'s value `v` (written units): `E` with
     /// [`E_EXTRA_DECIMALS`] more digits than the coordinates.
     fn fmt_extra(&mut self, i: usize, v: f64) {
-        self.scratch.clear();
         let more = if i == 6 { E_EXTRA_DECIMALS } else { 0 };
-        let decimals = (self.decimals() + more).min(MAX_DECIMALS);
-        push_fixed(&mut self.scratch, v, decimals);
+        self.fmt_to(v, self.decimals() + more);
     }
 
     fn allowed(&self, i: usize) -> bool {
@@ -1668,7 +1675,7 @@ impl MotionWriter {
     /// ([`ExtraProfile::at`]); `None` when its moves carry none.
     fn chain_values(&mut self, p: Vec3) -> Option<[f64; 7]> {
         let len_mm = self.written_pos().dist(p);
-        let snap_mm = 0.1f64.powi(self.decimals() as i32) * self.frame.scale;
+        let snap_mm = self.unit_mm();
         let profile = self.chain_extra.as_mut()?;
         Some(profile.at(p, len_mm, snap_mm))
     }
@@ -1913,7 +1920,7 @@ impl MotionWriter {
         if self.frame.arc_planes & (1 << (plane - 17)) == 0 {
             return Ok(false);
         }
-        let unit = 0.1f64.powi(self.decimals() as i32) * self.frame.scale;
+        let unit = self.unit_mm();
         let min_radius = (2.0 * unit).max(MIN_ARC_RADIUS_MM);
         if a.radius.is_nan() || a.radius < min_radius || !a.sweep.is_finite() || a.sweep <= 0.0 {
             return Ok(false);
