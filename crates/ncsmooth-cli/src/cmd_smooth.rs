@@ -793,7 +793,9 @@ fn smooth_program_with(
                     min_block_mm: LINUXCNC_CORNER_FLOOR_P * b.p_mm,
                     tol_mm: tol - rounding - blend_mm,
                     corner: Some(CornerBlend {
-                        total_mm: tol - rounding - less_mm,
+                        // The blends at raised points leave the same share to whoever
+                        // measures them from servo samples as the verbatim motion's.
+                        total_mm: tol * VERBATIM_BLEND_SHARE - rounding - less_mm,
                         max_p_mm: v.p_mm,
                         run_p_mm: b.p_mm,
                     }),

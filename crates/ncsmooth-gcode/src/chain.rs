@@ -888,12 +888,53 @@ pub(crate) struct Lift {
 }
 
 impl Program<'_> {
-    /// Distance from `p` to the programmed path where it is within the tolerance
-    /// (infinite where no programmed segment comes that near).
-    pub(crate) fn dist_near(&self, grid: &SegGrid, p: Vec3) -> f64 {
+    /// The grid over the programmed segments, for [`Program::dist_near`].
+    pub(crate) fn grid(&self) -> SegGrid {
+        SegGrid::new(self.points, self.tol_mm)
+    }
+
+    /// The largest distance from a programmed vertex within `within` of the segments
+    /// `lines` to the nearest of them, over the vertices no nearer to any of `others`
+    /// (0 where there is none).
+    pub(crate) fn vertex_gap(
+        &self,
+        grid: &SegGrid,
+        lines: &[(Vec3, Vec3)],
+        others: &[(Vec3, Vec3)],
+        within: f64,
+    ) -> f64 {
+        let Some(&(first, _)) = lines.first() else {
+            return 0.0;
+        };
+        let (lo, hi) = lines.iter().fold((first, first), |(lo, hi), &(a, b)| {
+            (lo.min(a).min(b), hi.max(a).max(b))
+        });
+        let pad = Vec3::new(within, within, within);
+        let nearest = |q: Vec3, segs: &[(Vec3, Vec3)]| {
+            segs.iter()
+                .map(|&(a, b)| seg_dist(q, a, b).0)
+                .fold(f64::INFINITY, f64::min)
+        };
+        let mut near = Vec::new();
+        self.vertices_in(grid, lo - pad, hi + pad, &mut near);
+        near.into_iter()
+            .map(|q| (nearest(q, lines), nearest(q, others)))
+            .filter(|&(e, other)| e < within && e <= other)
+            .fold(0.0, |m, (e, _)| m.max(e))
+    }
+
+    /// An upper bound on the distance from the segment `a`-`b` to the programmed path:
+    /// the largest at `samples + 1` evenly spaced points plus half their spacing (the
+    /// distance is 1-Lipschitz); infinite where a point has no programmed segment within
+    /// the tolerance.
+    pub(crate) fn max_dist_near(&self, grid: &SegGrid, a: Vec3, b: Vec3, samples: usize) -> f64 {
         let mut segs = Vec::new();
-        self.near(grid, p, p, self.tol_mm, &mut segs);
-        self.dist(p, &segs)
+        self.near(grid, a, b, self.tol_mm, &mut segs);
+        let n = samples.max(1);
+        let worst = (0..=n)
+            .map(|i| self.dist(a + (b - a) * (i as f64 / n as f64), &segs))
+            .fold(0.0, f64::max);
+        worst + 0.5 * a.dist(b) / n as f64
     }
 }
 

@@ -40,6 +40,9 @@
 //!   the length of the fibre ending there (0 outside the blend, `h` at the corner), and
 //!   at most its distance to the largest arc's ends.
 //!
+//! A rapid and a feed move are not blended: LinuxCNC stops between them (tp.c
+//! `tpCheckCanonType`).
+//!
 //! Both are upper bounds within the given accuracy, for every choice LinuxCNC makes. `T` is
 //! widened by [`LINUXCNC_BLEND_EXCESS_SHARE`]: LinuxCNC's arcs were measured up to 1.3 %
 //! beyond it.
@@ -56,6 +59,7 @@
 use crate::source::PathMode;
 use crate::Program;
 use ncsmooth::geom::{Line, ParamCurve, Segment, Vec3};
+use ncsmooth::path::MoveKind;
 use ncsmooth::verify::{Deviation, PathIndex};
 use ncsmooth::Toolpath;
 
@@ -219,11 +223,15 @@ fn modelled_p(mode: PathMode, cap_mm: f64) -> Option<Option<f64>> {
     }
 }
 
-/// The join of `a` (in `mode_a`) then `b` (in `mode_b`).
-fn join(a: (&Segment, PathMode), b: (&Segment, PathMode), cap_mm: f64, counted_mm: f64) -> Join {
+/// A written move as LinuxCNC plans it: its segment, its path mode and its kind.
+type Planned<'a> = (&'a Segment, PathMode, MoveKind);
+
+/// The join of `a` then `b`.
+fn join(a: Planned, b: Planned, cap_mm: f64, counted_mm: f64) -> Join {
     // Moves that do not meet (motion the path does not hold between them, such as a G53
-    // move) have no corner between them to blend.
-    if a.0.end().dist(b.0.start()) > CONTIGUOUS_MM {
+    // move) have no corner between them to blend; nor do a rapid and a feed move, between
+    // which LinuxCNC stops (tp.c `tpCheckCanonType`).
+    if a.0.end().dist(b.0.start()) > CONTIGUOUS_MM || a.2 != b.2 {
         return Join::Exact;
     }
     // The first move's mode decides whether LinuxCNC blends at its end at all.
@@ -257,7 +265,7 @@ pub fn linuxcnc_executed(
     counted_mm: f64,
     accuracy_mm: f64,
 ) -> Executed {
-    let moves: Vec<(&Segment, PathMode)> = written
+    let moves: Vec<Planned> = written
         .toolpath
         .moves()
         .map(|m| {
@@ -266,7 +274,7 @@ pub fn linuxcnc_executed(
                 Some(i) if !m.pinned => i.state.path,
                 _ => PathMode::Unset,
             };
-            (&m.segment, mode)
+            (&m.segment, mode, m.kind)
         })
         .collect();
     let joins: Vec<Join> = moves
@@ -333,14 +341,29 @@ fn region_sup(b: &BlendArc, prog: &mut PathIndex, mut best: f64, slack: f64) -> 
         let (f, line) = prog.nearest_line(b.arc_point(tm));
         *best = best.max(f);
         let hull = b.slice(t0, t1);
-        let ub = match line {
-            // The distance to one programmed line is convex: over the slice, at most its
-            // largest at the corners of a convex set holding it.
-            Some(l) => hull
-                .iter()
+        // The distance to one programmed line is convex: over the slice, at most its
+        // largest at the corners of a convex set holding it.
+        let over = |l: Line| {
+            hull.iter()
                 .map(|&v| l.dist_sq(v))
                 .fold(0.0, f64::max)
-                .sqrt(),
+                .sqrt()
+        };
+        let ub = match line {
+            Some(l) => {
+                let ub = over(l);
+                if ub <= *best + slack {
+                    ub
+                } else {
+                    // The line nearest the middle may not be the one a corner of the
+                    // slice lies on (a third line passing near the blend): the nearest
+                    // lines of the corners are tried too, the least bound kept.
+                    hull.iter()
+                        .filter_map(|&v| prog.nearest_line(v).1)
+                        .map(over)
+                        .fold(ub, f64::min)
+                }
+            }
             // Else 1-Lipschitz: half the slice along the arc, all of its fibres across.
             None => f + 0.5 * (t1 - t0) * along + b.fibre_len_mm(t0).max(b.fibre_len_mm(t1)),
         };
@@ -435,7 +458,7 @@ impl Ord for Cell {
 
 /// An upper bound on the distance from `q` to the executed path, `q`'s nearest written
 /// point being `dw` away on move `k`.
-fn vertex_bound(q: Vec3, dw: f64, k: usize, moves: &[(&Segment, PathMode)], joins: &[Join]) -> f64 {
+fn vertex_bound(q: Vec3, dw: f64, k: usize, moves: &[Planned], joins: &[Join]) -> f64 {
     let Segment::Line(line) = moves[k].0 else {
         // Not a line: its joins are counted, whichever is nearer.
         let worst = [k.checked_sub(1), Some(k)]

@@ -105,16 +105,19 @@ pub struct BlockFloor {
     /// left of the user's tolerance after the printed decimals and any blending.
     pub tol_mm: f64,
     /// LinuxCNC: short blocks are replaced only by the programmed corner, whose blend
-    /// gets a `P` of its own (`None`: every replacement, for a stepper controller).
+    /// gets a `P` of its own, as do tight turns where the tolerance leaves room (`None`:
+    /// every replacement, for a stepper controller).
     pub corner: Option<CornerBlend>,
 }
 
-/// The `P` a programmed corner put in place of short blocks may get under LinuxCNC
-/// ([`BlockFloor::corner`]): on the programmed path, its blend may take what the
-/// tolerance leaves after the lines beside it.
+/// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`]):
+/// a programmed corner put in place of short blocks, and a point whose speed needs all of
+/// the run's `P` (a tight turn), may have their blends take what the tolerance leaves
+/// after the lines beside them (the writer's `vertex_rooms`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CornerBlend {
-    /// The tolerance less the printed decimals (mm): the blend's `P` and the lines'
+    /// The tolerance less the printed decimals, and less a share left to whoever
+    /// measures the blends from servo samples (mm): the blend's `P` and the lines'
     /// deviation where it runs share it.
     pub total_mm: f64,
     /// Largest `P` to write (mm), within what the model of the executed path caps.

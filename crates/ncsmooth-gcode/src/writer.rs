@@ -254,6 +254,45 @@ pub(crate) struct Floor {
     pub corner: Option<crate::rewrite::CornerBlend>,
 }
 
+impl Floor {
+    /// The programmed path as the block floor's [`crate::chain::Program`].
+    fn program_ref(&self) -> crate::chain::Program<'_> {
+        crate::chain::Program {
+            points: &self.program,
+            tol_mm: self.tol_mm,
+        }
+    }
+
+    /// The room of each point of the chain from `start` through `pts` (not the last) that
+    /// is `wanted` or a programmed corner put in place of short blocks (`snapped`), under
+    /// LinuxCNC ([`vertex_room`]); `None` for the others, and for all without
+    /// [`Floor::corner`].
+    fn rooms(
+        &self,
+        start: Vec3,
+        pts: &[Vec3],
+        snapped: &[Vec3],
+        wanted: &[bool],
+    ) -> Vec<Option<VertexRoom>> {
+        let Some(c) = self.corner else {
+            return Vec::new();
+        };
+        let program = self.program_ref();
+        let grid = self.grid.get_or_init(|| program.grid());
+        let line_dev = |a: Vec3, b: Vec3| program.max_dist_near(grid, a, b, ROOM_SAMPLES);
+        let gap = |lines: &[(Vec3, Vec3)], others: &[(Vec3, Vec3)]| {
+            program.vertex_gap(grid, lines, others, c.total_mm)
+        };
+        (0..pts.len().saturating_sub(1))
+            .map(|k| {
+                let corner = snapped.contains(&pts[k]);
+                (corner || wanted.get(k) == Some(&true))
+                    .then(|| vertex_room(k, start, pts, corner, c, line_dev, gap))
+            })
+            .collect()
+    }
+}
+
 /// How a [`MotionWriter`] writes: units, modes and which axes it may write.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Frame {
@@ -498,8 +537,9 @@ pub struct RunEnds {
 /// (a blend uses the smaller `P` of its two blocks), and the run's ends, and the run's
 /// own `P` after the chain, get all of it. `P` is never larger than the run's, so the
 /// tolerance budget is unchanged (the schedule's own shares; a programmed corner put in
-/// place of short blocks gets more, [`crate::rewrite::CornerBlend`], checked by the
-/// model of the executed path).
+/// place of short blocks, and a point whose speed needs all of `P`, get more where the
+/// tolerance leaves it, [`crate::rewrite::CornerBlend`], checked by the model of the
+/// executed path).
 ///
 /// A vertex between two blocks that carry more for their other vertices (a gentle turn
 /// between two tight ones) gets its own share from a split of one of them
@@ -879,35 +919,127 @@ impl BlendSchedule {
     }
 }
 
-/// The `P` of each written point from `start` through `pts` that is a programmed corner
-/// put in place of short blocks (`snapped`), as (index, `P`): the corner is on the
-/// programmed path, so its blend may take what the tolerance leaves after the lines
-/// beside it, which stray from the program by at most half their far ends' distance
-/// `dist` where the blend runs (it takes at most half of each), up to `c.max_p_mm`. A
-/// corner that would get no more than the run's `P` is left out, and so are the last
-/// point and two corners two points apart.
-fn corner_blends(
+/// Points sampled along each line where LinuxCNC's blend at a point given more than the
+/// run's `P` may run, to bound the line's deviation there.
+pub const ROOM_SAMPLES: usize = 32;
+
+/// The `P` point `k` of a chain from `start` through `pts` (not the last) may take under
+/// LinuxCNC, as a [`VertexRoom`]; `corner`: a programmed corner put in place of short
+/// blocks. LinuxCNC's blend there runs within `reach` of the point along its two lines
+/// (at most half of each, and what `c.max_p_mm` gives: [`VertexBlend`]) and within its
+/// `P` of them.
+///
+/// * (a) Every point of the blend is within `P` of a point of the lines within reach,
+///   which are at most `line_dev` from the programmed path ([`ROOM_SAMPLES`] samples
+///   each, 1-Lipschitz).
+/// * (b) A programmed vertex whose nearest written point is within reach is at most its
+///   distance to it plus the blend's depth from the executed path (`gap`: the largest
+///   such distance, given the parts within reach and the written lines around them).
+///
+/// The blend may take what the tolerance leaves after the larger of the two, up to
+/// `c.max_p_mm`.
+fn vertex_room(
+    k: usize,
     start: Vec3,
     pts: &[Vec3],
-    snapped: &[Vec3],
+    corner: bool,
     c: crate::rewrite::CornerBlend,
-    dist: impl Fn(Vec3) -> f64,
-) -> Vec<(usize, f64)> {
-    if snapped.is_empty() {
-        return Vec::new();
-    }
+    line_dev: impl Fn(Vec3, Vec3) -> f64,
+    gap: impl Fn(&[(Vec3, Vec3)], &[(Vec3, Vec3)]) -> f64,
+) -> VertexRoom {
     let at = |j: usize| if j == 0 { start } else { pts[j - 1] };
-    let corner = |k: usize| k + 1 < pts.len() && snapped.contains(&pts[k]);
-    // Two corners two points apart would raise both blocks of the point between them,
-    // which is not on the program: neither gets more.
-    (0..pts.len().saturating_sub(1))
-        .filter(|&k| corner(k) && !corner(k + 2) && (k < 2 || !corner(k - 2)))
-        .map(|k| {
-            let far = dist(at(k)).max(dist(pts[k + 1]));
-            (k, c.max_p_mm.min(c.total_mm - 0.5 * far))
+    let (a, v, b) = (at(k), pts[k], pts[k + 1]);
+    let reach = VertexBlend::new(v - a, b - v, 0.0).reach_mm(c.max_p_mm);
+    let toward = |p: Vec3| v + (p - v) * (reach / v.dist(p)).min(0.5);
+    let (ra, rb) = (toward(a), toward(b));
+    let within = [(ra, v), (v, rb)];
+    // The rest of the written lines around them.
+    let mut others = vec![(a, ra), (rb, b)];
+    others.extend((k >= 1).then(|| (at(k - 1), a)));
+    others.extend((k + 2 < pts.len()).then(|| (b, pts[k + 2])));
+    let taken = line_dev(ra, v)
+        .max(line_dev(v, rb))
+        .max(gap(&within, &others));
+    let p_mm = c.max_p_mm.min(c.total_mm - taken);
+    VertexRoom {
+        p_mm: if p_mm.is_nan() { 0.0 } else { p_mm },
+        corner,
+    }
+}
+
+/// The `P` a written point may take under LinuxCNC ([`vertex_room`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct VertexRoom {
+    /// Largest `P` (mm) within the tolerance there.
+    p_mm: f64,
+    /// A programmed corner put in place of short blocks.
+    corner: bool,
+}
+
+/// Raises the blocks' shares `block` of the run's `P` (`run_p_mm`) so that the blends at
+/// the programmed corners put in place of short blocks, and at the points `sharp` says
+/// need all of the run's `P` (giving their speed estimate), get what `rooms` allows them.
+/// LinuxCNC blends a point with the smaller `P` of its two blocks, so a point's raise
+/// lifts both of them, as far as the points at their other ends stay within their own
+/// room (or the share they had: the run's `P` is within the tolerance only where the
+/// model of the executed path confirms it). Corners go first, then the slowest points; a chain's end point is raised only
+/// next to a stop (`ends` at rest: LinuxCNC stops between a rapid and a feed move, tp.c
+/// `tpCheckCanonType`), since the move beyond it has a `P` of its own.
+fn raise_for_rooms(
+    block: &mut [f64],
+    rooms: &[Option<VertexRoom>],
+    run_p_mm: f64,
+    ends: RunEnds,
+    sharp: impl Fn(usize) -> Option<f64>,
+) {
+    let n = block.len();
+    // The largest share each point's blend may get: its room, or what it had.
+    let had: Vec<f64> = block.windows(2).map(|w| w[0].min(w[1])).collect();
+    let lim = |k: usize| match rooms.get(k).copied().flatten() {
+        Some(r) => (r.p_mm / run_p_mm).max(had[k]),
+        None => had[k],
+    };
+    let (first, last) = raised_span(n, ends);
+    // Corners first, then the slowest points.
+    let mut order: Vec<(usize, f64, f64)> = rooms
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| Some((k, (*r)?)))
+        .filter(|&(k, r)| r.p_mm > run_p_mm && k + 1 < n)
+        .filter_map(|(k, r)| match (r.corner, k >= first && k + 1 < last) {
+            (true, _) => Some((k, f64::NEG_INFINITY, r.p_mm)),
+            (false, true) => sharp(k).map(|v| (k, v, r.p_mm)),
+            (false, false) => None,
         })
-        .filter(|&(_, p)| p > c.run_p_mm)
-        .collect()
+        .collect();
+    order.sort_by(|x, y| x.1.total_cmp(&y.1));
+    for (k, _, p_mm) in order {
+        let share = p_mm / run_p_mm;
+        // Each block's raise, held where the point at its other end would get more than
+        // it may.
+        let mut a = block[k].max(share);
+        if k >= 1 && block[k - 1] > lim(k - 1) {
+            a = a.min(lim(k - 1).max(block[k]));
+        }
+        let mut b = block[k + 1].max(share);
+        if k + 2 < n && block[k + 2] > lim(k + 1) {
+            b = b.min(lim(k + 1).max(block[k + 1]));
+        }
+        let got = a.min(b);
+        if got > 1.0 {
+            block[k] = block[k].max(got);
+            block[k + 1] = block[k + 1].max(got);
+        }
+    }
+}
+
+/// The points of a chain of `n` blocks (`first..last - 1`) whose blend may be raised
+/// unless they are programmed corners: not a chain's end point next to a move of
+/// unknown `P` (`ends`), which LinuxCNC blends with the smaller of the two.
+fn raised_span(n: usize, ends: RunEnds) -> (usize, usize) {
+    let first = if ends.before == RunEnd::Rest { 0 } else { 1 };
+    let last = if ends.after == RunEnd::Rest { n } else { n - 1 };
+    (first, last)
 }
 
 /// LinuxCNC's blend arc between two lines (blendmath.c `blendComputeParameters`): tangent
@@ -1730,19 +1862,16 @@ impl MotionWriter {
                 &mut pts,
             );
         }
-        let mut corners = Vec::new();
-        if let Some(f) = lift.then(|| self.floor.take()).flatten() {
-            let program = crate::chain::Program {
-                points: &f.program,
-                tol_mm: f.tol_mm,
-            };
-            let start = self.written_pos();
+        let floor = lift.then(|| self.floor.take()).flatten();
+        let mut snapped = Vec::new();
+        if let Some(f) = floor.as_ref() {
+            let program = f.program_ref();
             let mut how = crate::chain::Lift {
                 corners_only: f.corner.is_some(),
                 ..Default::default()
             };
             crate::chain::lift_short_blocks_in(
-                start,
+                self.written_pos(),
                 &mut pts,
                 f.min_block_mm,
                 &program,
@@ -1750,16 +1879,22 @@ impl MotionWriter {
                 |p| self.rounded(p),
                 &mut how,
             );
-            if let (Some(c), Some(grid)) = (f.corner, f.grid.get()) {
-                let dist = |p: Vec3| program.dist_near(grid, p);
-                corners = corner_blends(start, &pts, &how.snapped, c, dist);
-            }
-            self.floor = Some(f);
+            snapped = how.snapped;
         }
         let (shares, splits) = match self.blend_schedule.filter(|_| lift) {
-            Some(s) => self.blocks_blends(s, m, &pts, &corners),
+            Some(s) => {
+                let start = self.written_pos();
+                let rooms = |wanted: &[bool]| match floor.as_ref() {
+                    Some(f) => f.rooms(start, &pts, &snapped, wanted),
+                    None => Vec::new(),
+                };
+                self.blocks_blends(s, m, &pts, rooms)
+            }
             None => (Vec::new(), Vec::new()),
         };
+        if floor.is_some() {
+            self.floor = floor;
+        }
         for (k, p) in pts.into_iter().enumerate() {
             if let Some(Some(split)) = splits.get(k) {
                 self.set_blend_share(split.shares.0, out)?;
@@ -1776,25 +1911,31 @@ impl MotionWriter {
     }
 
     /// The schedule's share of `P` for each block of the chain `pts` (from the written
-    /// position), raised to the `P` of the programmed `corners` (index, `P`) on the
-    /// corner's two blocks, and the blocks it splits.
+    /// position), raised where the rooms of its points (`rooms`, given which points want
+    /// one: those whose speed needs all of the run's `P`) allow more than the run's `P`
+    /// ([`raise_for_rooms`]), and the blocks it splits.
     fn blocks_blends(
         &self,
         s: BlendSchedule,
         m: &Move,
         pts: &[Vec3],
-        corners: &[(usize, f64)],
+        rooms: impl FnOnce(&[bool]) -> Vec<Option<VertexRoom>>,
     ) -> (Vec<f64>, Vec<Option<Split>>) {
         let start = self.written_pos();
         let Some(plan) = s.plan(start, pts, m.feed_mm_s, self.chain_ends) else {
             return (Vec::new(), Vec::new());
         };
         let mut shares = plan.block.clone();
-        for &(k, p_mm) in corners {
-            for j in [k, k + 1] {
-                shares[j] = shares[j].max(p_mm / s.p_mm);
-            }
-        }
+        let sharp = |k: usize| {
+            let needs_all = BlendSchedule::round_share(*plan.vertex.get(k)?) >= 1.0;
+            needs_all.then(|| plan.speed.get(k).copied()).flatten()
+        };
+        let (first, last) = raised_span(pts.len(), self.chain_ends);
+        let wanted: Vec<bool> = (0..pts.len().saturating_sub(1))
+            .map(|k| k >= first && k + 1 < last && sharp(k).is_some())
+            .collect();
+        let rooms = rooms(&wanted);
+        raise_for_rooms(&mut shares, &rooms, s.p_mm, self.chain_ends, sharp);
         let splits = s.splits(&plan, start, pts, &shares, |p| self.rounded(p));
         (shares, splits)
     }
@@ -2262,35 +2403,149 @@ mod tests {
     }
 
     #[test]
-    fn a_programmed_corner_gets_what_the_lines_beside_it_leave_of_the_tolerance() {
+    fn a_point_gets_what_the_lines_beside_it_leave_of_the_tolerance() {
         let c = crate::rewrite::CornerBlend {
             total_mm: 0.0099,
             max_p_mm: 0.0095,
             run_p_mm: 0.004,
         };
         let v = |x: f64, y: f64| Vec3::new(x, y, 0.0);
-        let (start, corner) = (v(0.0, 0.0), v(1.0, 0.0));
-        let pts = [corner, v(1.0, 1.0), v(2.0, 1.0)];
-        // The far ends stray 0.004 mm: the blend, which takes at most half of each line,
-        // runs where they stray 0.002 at most, and gets 0.0099 - 0.002.
-        let blends = corner_blends(start, &pts, &[corner], c, |_| 0.004);
-        assert_eq!(blends.len(), 1);
-        assert_eq!(blends[0].0, 0);
-        assert!((blends[0].1 - 0.0079).abs() < 1e-12, "{blends:?}");
-        // On the program both sides: the cap.
-        assert_eq!(
-            corner_blends(start, &pts, &[corner], c, |_| 0.0),
-            vec![(0, 0.0095)]
+        let start = v(0.0, 0.0);
+        let pts = [v(1.0, 0.0), v(1.0, 1.0), v(2.0, 1.0)];
+        let room = |line_dev: &dyn Fn(Vec3, Vec3) -> f64, gap: f64| {
+            vertex_room(0, start, &pts, false, c, line_dev, |_, _| gap).p_mm
+        };
+        let close = |x: f64, want: f64| assert!((x - want).abs() < 1e-12, "{x} against {want}");
+        // On the program: the cap.
+        close(room(&|_, _| 0.0, 0.0), 0.0095);
+        // (a): the lines within reach stray 0.004 mm: 0.0099 - 0.004.
+        close(room(&|_, _| 0.004, 0.0), 0.0059);
+        // (b): a programmed vertex 0.006 mm from them leaves 0.0039.
+        close(room(&|_, _| 0.001, 0.006), 0.0039);
+        // Out of reach of the program: no room at all.
+        assert!(room(&|_, _| f64::INFINITY, 0.0) < 0.0);
+        // The parts of the lines measured are those within reach of the point: at a
+        // right angle, what P = 0.0095 takes, P / tan(pi / 8) of each.
+        let reach = 0.0095 / (std::f64::consts::PI / 8.0).tan();
+        let seen = std::cell::RefCell::new(Vec::new());
+        let line_dev = |a: Vec3, b: Vec3| {
+            seen.borrow_mut().push(a.dist(b));
+            0.0
+        };
+        vertex_room(0, start, &pts, false, c, line_dev, |_, _| 0.0);
+        for len in seen.borrow().iter() {
+            assert!((len - reach).abs() < 1e-12, "{len} against {reach}");
+        }
+        // Never more than half a line.
+        let short = [v(0.01, 0.0), v(0.01, 1.0), v(2.0, 1.0)];
+        seen.borrow_mut().clear();
+        vertex_room(0, start, &short, true, c, line_dev, |_, _| 0.0);
+        assert!(
+            (seen.borrow()[0] - 0.005).abs() < 1e-12,
+            "{:?}",
+            seen.borrow()
         );
-        // No more than the run's P, or the chain's last point: none.
-        assert!(corner_blends(start, &pts, &[corner], c, |_| 0.012).is_empty());
-        assert!(corner_blends(start, &pts, &[v(2.0, 1.0)], c, |_| 0.0).is_empty());
-        // Two points apart: the point between would get both blocks raised.
-        let two = [corner, v(1.0, 1.0), v(2.0, 1.0), v(2.0, 2.0)];
-        let both = corner_blends(start, &two, &[corner, v(2.0, 1.0)], c, |_| 0.0);
-        assert!(both.is_empty(), "{both:?}");
-        let next = corner_blends(start, &two, &[corner, v(1.0, 1.0)], c, |_| 0.0);
-        assert_eq!(next, vec![(0, 0.0095), (1, 0.0095)]);
+    }
+
+    /// The share of `P` LinuxCNC blends point `k` with: the smaller of its two blocks'.
+    fn blended(block: &[f64], k: usize) -> f64 {
+        block[k].min(block[k + 1])
+    }
+
+    #[test]
+    fn a_sharp_point_gets_its_room_and_its_neighbours_keep_theirs() {
+        let run = 0.004;
+        let room = |p_mm: f64, corner: bool| Some(VertexRoom { p_mm, corner });
+        let free = RunEnds::default();
+        // Points 1 and 3 need all of the run's P (3 mm/s and 5 mm/s); point 2 between
+        // them has no room beyond the run's.
+        let rooms = [
+            room(0.0095, false),
+            room(0.0095, false),
+            room(0.004, false),
+            room(0.0095, false),
+            room(0.0095, false),
+        ];
+        let speeds = [None, Some(3.0), None, Some(5.0), None];
+        let mut block = vec![1.0; 6];
+        raise_for_rooms(&mut block, &rooms, run, free, |k| speeds[k]);
+        // The slower point takes its room; the other would give point 2 more than its
+        // own, and keeps the run's P.
+        assert_eq!(block, vec![1.0, 2.375, 2.375, 1.0, 1.0, 1.0]);
+        assert_eq!(blended(&block, 2), 1.0);
+        // The other way round, the other one.
+        let speeds = [None, Some(5.0), None, Some(3.0), None];
+        let mut block = vec![1.0; 6];
+        raise_for_rooms(&mut block, &rooms, run, free, |k| speeds[k]);
+        assert_eq!(block, vec![1.0, 1.0, 1.0, 2.375, 2.375, 1.0]);
+        // A point that does not need all of P, or has no more room than the run's P,
+        // is left as it is.
+        let mut block = vec![1.0; 6];
+        raise_for_rooms(&mut block, &rooms, run, free, |_| None);
+        assert_eq!(block, vec![1.0; 6]);
+    }
+
+    #[test]
+    fn a_chain_end_is_raised_only_next_to_a_stop() {
+        let run = 0.004;
+        let rooms = [Some(VertexRoom {
+            p_mm: 0.008,
+            corner: false,
+        }); 2];
+        let sharp = |_: usize| Some(3.0);
+        // Point 0 joins blocks 0 and 1: block 0 starts at the chain's start, where the
+        // move before it has a P of its own; point 1 joins blocks 1 and 2, which ends it.
+        let mut block = vec![1.0; 3];
+        raise_for_rooms(&mut block, &rooms, run, RunEnds::default(), sharp);
+        assert_eq!(block, vec![1.0; 3]);
+        // Next to a rapid (LinuxCNC stops there): raised.
+        let rest = RunEnds {
+            before: RunEnd::Rest,
+            after: RunEnd::Rest,
+        };
+        let mut block = vec![1.0; 3];
+        raise_for_rooms(&mut block, &rooms, run, rest, sharp);
+        assert_eq!(block, vec![2.0; 3]);
+        // A programmed corner put in place of short blocks is raised wherever it is.
+        let corners = [Some(VertexRoom {
+            p_mm: 0.008,
+            corner: true,
+        }); 2];
+        let mut block = vec![1.0; 3];
+        raise_for_rooms(&mut block, &corners[..1], run, RunEnds::default(), |_| None);
+        assert_eq!(block, vec![2.0, 2.0, 1.0]);
+    }
+
+    proptest::proptest! {
+        /// Whatever the rooms, shares and order, no point is blended with more than the
+        /// larger of its room and what the schedule gave it, and no share goes down.
+        #[test]
+        fn raises_keep_every_point_within_its_room(
+            rooms in proptest::collection::vec(
+                proptest::option::of((0.0..0.01f64, proptest::bool::ANY)),
+                1..12,
+            ),
+            shares in proptest::collection::vec(0.0625..1.0f64, 13),
+            speeds in proptest::collection::vec(proptest::option::of(0.0..50.0f64), 12),
+        ) {
+            let run = 0.004;
+            let rooms: Vec<Option<VertexRoom>> = rooms
+                .into_iter()
+                .map(|r| r.map(|(p_mm, corner)| VertexRoom { p_mm, corner }))
+                .collect();
+            let before: Vec<f64> = shares[..rooms.len() + 1].to_vec();
+            let mut block = before.clone();
+            let rest = RunEnds { before: RunEnd::Rest, after: RunEnd::Rest };
+            raise_for_rooms(&mut block, &rooms, run, rest, |k| speeds[k]);
+            for k in 0..rooms.len() {
+                let room = rooms[k].map_or(0.0, |r| r.p_mm / run);
+                let lim = room.max(blended(&before, k));
+                proptest::prop_assert!(blended(&block, k) <= lim + 1e-12, "{k}: {block:?}");
+            }
+            for (b, a) in block.iter().zip(&before) {
+                proptest::prop_assert!(b >= a);
+            }
+        }
     }
 
     #[test]

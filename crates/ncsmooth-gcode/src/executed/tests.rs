@@ -116,3 +116,39 @@ fn a_join_not_modelled_is_counted_where_it_is() {
     // largest is the written 0.004 at (20, 0.004), not 0.004 + 0.001.
     assert!((e.path_to_programmed_mm - 0.004).abs() < 1e-4, "{e:?}");
 }
+
+#[test]
+fn a_feed_move_and_a_rapid_are_not_blended() {
+    // LinuxCNC stops between a feed move and a rapid (tp.c tpCheckCanonType): the corner
+    // at (10, 0) is run exactly whatever the P, both ways.
+    let prog = "G21 G0 X0 Y0\nG1 X10 F600\nG0 Y10\nG1 X20\n";
+    let written = "G21 G64 P0.01 Q0\nG0 X0 Y0\nG1 X10 F600\nG0 Y10\nG1 X20\n";
+    let e = executed(written, prog, 0.01, 0.01);
+    assert_eq!((e.blends_modelled, e.blends_counted), (0, 0), "{e:?}");
+    assert!(e.max_mm() < ACCURACY_MM, "{e:?}");
+    // Two feed moves at the same corner are.
+    let feeds = "G21 G64 P0.01 Q0\nG0 X0 Y0\nG1 X10 F600\nG1 Y10\nG1 X20\n";
+    let prog = "G21 G0 X0 Y0\nG1 X10 F600\nG1 Y10\nG1 X20\n";
+    assert_eq!(executed(feeds, prog, 0.01, 0.01).blends_modelled, 2);
+}
+
+#[test]
+fn a_line_passing_near_a_blend_does_not_inflate_its_bound() {
+    // A right-angle corner at the origin blended within 0.008, and a third programmed
+    // line across the corner's inside, 0.0112 from the corner but nearer the blend arc's
+    // middle than the corner's own lines are. The blend region is within 0.008 (widened
+    // by LinuxCNC's measured excess) of the corner's lines; measured against the third
+    // line alone its corner at the origin would be 0.0112 away.
+    let (x0, y0) = (-0.715_03, -0.699_18);
+    let (x1, y1) = (0.699_18, 0.715_03);
+    let moves = format!("G0 X0 Y10\nG1 Y0 F600\nG1 X-10\nG0 X{x0} Y{y0}\nG1 X{x1} Y{y1}\n");
+    let prog = format!("G21 {moves}");
+    let written = format!("G21 G64 P0.008 Q0\n{moves}");
+    let e = executed(&written, &prog, 0.01, 0.01);
+    assert_eq!(e.blends_modelled, 1, "{e:?}");
+    let widen = 1.0 + LINUXCNC_BLEND_EXCESS_SHARE;
+    assert!(
+        e.path_to_programmed_mm <= 0.008 * widen + ACCURACY_MM,
+        "{e:?}"
+    );
+}
