@@ -982,9 +982,10 @@ struct VertexRoom {
 /// LinuxCNC blends a point with the smaller `P` of its two blocks, so a point's raise
 /// lifts both of them, as far as the points at their other ends stay within their own
 /// room (or the share they had: the run's `P` is within the tolerance only where the
-/// model of the executed path confirms it). Corners go first, then the slowest points; a chain's end point is raised only
-/// next to a stop (`ends` at rest: LinuxCNC stops between a rapid and a feed move, tp.c
-/// `tpCheckCanonType`), since the move beyond it has a `P` of its own.
+/// model of the executed path confirms it). Corners go first, then the slowest points;
+/// a chain's end point is raised only next to a stop (`ends` at rest: LinuxCNC stops
+/// between a rapid and a feed move, tp.c `tpCheckCanonType`), since the move beyond it
+/// has a `P` of its own.
 fn raise_for_rooms(
     block: &mut [f64],
     rooms: &[Option<VertexRoom>],
@@ -1038,7 +1039,11 @@ fn raise_for_rooms(
 /// unknown `P` (`ends`), which LinuxCNC blends with the smaller of the two.
 fn raised_span(n: usize, ends: RunEnds) -> (usize, usize) {
     let first = if ends.before == RunEnd::Rest { 0 } else { 1 };
-    let last = if ends.after == RunEnd::Rest { n } else { n - 1 };
+    let last = if ends.after == RunEnd::Rest {
+        n
+    } else {
+        n.saturating_sub(1)
+    };
     (first, last)
 }
 
@@ -2483,6 +2488,14 @@ mod tests {
         let mut block = vec![1.0; 6];
         raise_for_rooms(&mut block, &rooms, run, free, |_| None);
         assert_eq!(block, vec![1.0; 6]);
+    }
+
+    #[test]
+    fn an_empty_chain_has_nothing_to_raise() {
+        let mut block: Vec<f64> = Vec::new();
+        raise_for_rooms(&mut block, &[], 0.004, RunEnds::default(), |_| Some(1.0));
+        assert!(block.is_empty());
+        assert_eq!(raised_span(0, RunEnds::default()), (1, 0));
     }
 
     #[test]
