@@ -888,7 +888,8 @@ pub(crate) struct Lift {
 }
 
 impl Program<'_> {
-    /// The grid over the programmed segments, for [`Program::dist_near`].
+    /// The grid over the programmed segments, for [`Program::max_dist_near`] and
+    /// [`Program::vertex_gap`].
     pub(crate) fn grid(&self) -> SegGrid {
         SegGrid::new(self.points, self.tol_mm)
     }

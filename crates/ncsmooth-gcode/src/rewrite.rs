@@ -113,7 +113,7 @@ pub struct BlockFloor {
 /// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`]):
 /// a programmed corner put in place of short blocks, and a point whose speed needs all of
 /// the run's `P` (a tight turn), may have their blends take what the tolerance leaves
-/// after the lines beside them (the writer's `vertex_rooms`).
+/// after the lines beside them (the writer's `vertex_room`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CornerBlend {
     /// The tolerance less the printed decimals, and less a share left to whoever
