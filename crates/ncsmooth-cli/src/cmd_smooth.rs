@@ -797,7 +797,6 @@ fn smooth_program_with(
                         // measures them from servo samples as the verbatim motion's.
                         total_mm: tol * VERBATIM_BLEND_SHARE - rounding - less_mm,
                         max_p_mm: v.p_mm,
-                        run_p_mm: b.p_mm,
                     }),
                 }),
                 _ => None,

@@ -122,8 +122,6 @@ pub struct CornerBlend {
     pub total_mm: f64,
     /// Largest `P` to write (mm), within what the model of the executed path caps.
     pub max_p_mm: f64,
-    /// The run's `P` (mm): a corner that would get no more keeps it.
-    pub run_p_mm: f64,
 }
 
 /// Accuracy of the programmed curves' flattening for [`BlockFloor`], as a share of its

@@ -2412,7 +2412,6 @@ mod tests {
         let c = crate::rewrite::CornerBlend {
             total_mm: 0.0099,
             max_p_mm: 0.0095,
-            run_p_mm: 0.004,
         };
         let v = |x: f64, y: f64| Vec3::new(x, y, 0.0);
         let start = v(0.0, 0.0);
