@@ -878,11 +878,18 @@ pub fn lift_short_blocks(
 /// Which replacements [`lift_short_blocks`] tries, and what it reports back.
 #[derive(Debug, Default)]
 pub(crate) struct Lift {
-    /// Only the programmed corner, and not at the chain's last block (LinuxCNC: a block
-    /// shorter than four `P` caps its blends at a quarter of its length, the programmed
-    /// corner is blended within a `P` of its own; crown's last 40 mm line, made to end at
-    /// the programmed corner, ran at half the acceleration, 7.520 s against 7.443).
+    /// Only the programmed corner, and not at the chain's last block unless
+    /// [`Lift::last_block`] (LinuxCNC: a block shorter than four `P` caps its blends at a
+    /// quarter of its length, the programmed corner is blended within a `P` of its own).
     pub corners_only: bool,
+    /// With [`Lift::corners_only`], the chain's last block too: a rapid follows it, and
+    /// LinuxCNC stops before the rapid at the full acceleration. (At the program's end the
+    /// last segment keeps a parabolic blend's half acceleration: crown's last 40 mm line,
+    /// made to end at the programmed corner, ran 7.520 s against 7.443 for all of crown.)
+    /// camotics_vcarve's V strokes, plunging and rising again before a rapid, kept a
+    /// block of 0.005-0.01 mm at the bottom, which capped LinuxCNC's blend there at half
+    /// its length.
+    pub last_block: bool,
     /// The programmed vertices put in place of short blocks.
     pub snapped: Vec<Vec3>,
 }
@@ -982,7 +989,8 @@ pub(crate) fn lift_short_blocks_in(
             inner.then(|| (i - 2, i + 1, Some(round(mid)))),
             (i + 1 < n).then(|| (i - 1, i + 1, None)),
             (i >= 2).then(|| (i - 2, i, None)),
-            (inner && (!how.corners_only || i + 2 < n)).then(|| (i - 2, i + 1, snap)),
+            (inner && (!how.corners_only || how.last_block || i + 2 < n))
+                .then(|| (i - 2, i + 1, snap)),
             (i + 1 < n && swaps_left > 0).then(|| (i - 1, i + 1, stretch(i - 1, i))),
             (i >= 2 && swaps_left > 0).then(|| (i - 2, i, stretch(i, i - 1))),
         ];
@@ -1491,6 +1499,20 @@ mod tests {
             tail.iter().all(|p| *p == corner || before.contains(p)),
             "{tail:?}"
         );
+        // Unless a rapid follows the chain: LinuxCNC stops there at the full acceleration.
+        let mut how = Lift {
+            corners_only: true,
+            last_block: true,
+            ..Default::default()
+        };
+        let mut tail = before.clone();
+        lift_short_blocks_in(start, &mut tail, 0.03, &prog, &grid, |p| p, &mut how);
+        assert_eq!(how.snapped, vec![corner]);
+        assert_eq!(tail[tail.len() - 2], corner, "{tail:?}");
+        assert_eq!(tail.last(), before.last());
+        let mut path = vec![start];
+        path.extend_from_slice(&tail);
+        assert!(one_sided(&path, &program) <= 0.01);
     }
 
     #[test]

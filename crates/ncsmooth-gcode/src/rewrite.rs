@@ -1036,7 +1036,7 @@ impl<'a> Region<'a> {
             return RunEnds::default();
         };
         let joins = |m: &Move, t: Option<Vec3>| match m.kind {
-            MoveKind::Rapid => RunEnd::Rest,
+            MoveKind::Rapid => RunEnd::Rapid,
             MoveKind::Feed => t.map_or(RunEnd::Free, RunEnd::Joins),
         };
         RunEnds {

@@ -491,11 +491,24 @@ pub enum RunEnd {
     /// Not known: the estimate takes no limit there (it errs high).
     #[default]
     Free,
-    /// The machine is at rest there (the program's start or end).
+    /// The machine is at rest there: the program's start or end. LinuxCNC runs the
+    /// program's last segment with half the acceleration (its end condition stays the
+    /// parabolic blend's, tc.c `tcGetOverallMaxAccel`).
     Rest,
+    /// A rapid moves there: LinuxCNC stops between a rapid and a feed move, and the feed
+    /// move before it ends with a stop, at the full acceleration (tp.c
+    /// `tpCheckCanonType`).
+    Rapid,
     /// A move in this unit direction (of travel) joins the run there: LinuxCNC blends
     /// that junction within the run's `P` at most, which bounds the speed.
     Joins(Vec3),
+}
+
+impl RunEnd {
+    /// The machine is at rest there: the program's ends, or a rapid.
+    pub fn at_rest(self) -> bool {
+        matches!(self, RunEnd::Rest | RunEnd::Rapid)
+    }
 }
 
 /// The two ends of a run of blocks, see [`RunEnd`].
@@ -839,7 +852,7 @@ impl BlendSchedule {
     fn end_speed(&self, end: RunEnd, block: Vec3) -> Option<f64> {
         match end {
             RunEnd::Free => None,
-            RunEnd::Rest => Some(0.0),
+            RunEnd::Rest | RunEnd::Rapid => Some(0.0),
             RunEnd::Joins(d) => {
                 let blend = VertexBlend {
                     half_line_mm: f64::INFINITY,
@@ -1038,8 +1051,8 @@ fn raise_for_rooms(
 /// unless they are programmed corners: not a chain's end point next to a move of
 /// unknown `P` (`ends`), which LinuxCNC blends with the smaller of the two.
 fn raised_span(n: usize, ends: RunEnds) -> (usize, usize) {
-    let first = if ends.before == RunEnd::Rest { 0 } else { 1 };
-    let last = if ends.after == RunEnd::Rest {
+    let first = if ends.before.at_rest() { 0 } else { 1 };
+    let last = if ends.after.at_rest() {
         n
     } else {
         n.saturating_sub(1)
@@ -1873,6 +1886,7 @@ impl MotionWriter {
             let program = f.program_ref();
             let mut how = crate::chain::Lift {
                 corners_only: f.corner.is_some(),
+                last_block: self.chain_ends.after == RunEnd::Rapid,
                 ..Default::default()
             };
             crate::chain::lift_short_blocks_in(
