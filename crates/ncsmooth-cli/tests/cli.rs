@@ -1790,6 +1790,16 @@ fn linuxcnc_v_stroke_bottom_is_the_programmed_corner_before_a_rapid() {
             .unwrap_or_else(|| panic!("{method}: no programmed corner in {pts:?}"));
         // From the corner, one block rises to the end of the cut.
         assert_eq!(bottom + 2, pts.len(), "{method}: {pts:?}");
+        // No `G64` of ours that no move runs under: the run's `P` before a first block
+        // with a share of its own, the run's again before the rapids' bound.
+        let lines: Vec<&str> = text.lines().collect();
+        let ours = |l: &str| l.starts_with("G64 P") && l.ends_with(" Q0");
+        assert!(
+            !lines
+                .windows(2)
+                .any(|w| ours(w[0]) && w[1].starts_with("G64")),
+            "{method}: {text}"
+        );
     }
 }
 

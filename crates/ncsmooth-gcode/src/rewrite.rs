@@ -1157,9 +1157,11 @@ impl<'a> Region<'a> {
             s.extend_from_slice(b"G90");
             s.extend_from_slice(eol.as_bytes());
         }
-        if let Some(b) = opts.blend {
-            push_blend_line(s, b, st.units, opts.decimals, eol);
-        }
+        // The run's `G64` goes before its first line, unless the writer sets another
+        // first (a chain's first block with a share of its own).
+        w.blend_pending = opts
+            .blend
+            .map(|b| blend_text(b, st.units, decimals_for(st.units, opts.decimals)));
         Region {
             w,
             buf: String::with_capacity(256),
@@ -1177,7 +1179,7 @@ impl<'a> Region<'a> {
     /// lines after the run (`decimals`: the options' decimals); returns the motion code a
     /// following modal-motion line must be given, if the last one written differs.
     fn close(
-        self,
+        mut self,
         s: &mut Vec<u8>,
         eol: &str,
         decimals: usize,
@@ -1214,6 +1216,7 @@ impl<'a> Region<'a> {
         }
         // The verbatim bound, on a line of its own like the runs' `G64`.
         let mut bound = None;
+        let mut mode_set = false;
         if let (Some(b), Some(vb)) = (self.blend, verbatim) {
             // The program's own mode comes back only when it is at least as tight as the
             // verbatim bound; otherwise the verbatim bound is set, unless the run's is it.
@@ -1223,10 +1226,18 @@ impl<'a> Region<'a> {
                         restore.push(' ');
                     }
                     restore.push_str(&t);
+                    mode_set = true;
                 }
             } else if vb != b {
                 bound = Some(vb);
+                mode_set = true;
             }
+        }
+        // A `G64` the run set after its last line stays in force over what is copied
+        // next, unless a mode of the program or the verbatim bound replaces it here.
+        if let Some(g64) = self.w.blend_pending.take().filter(|_| !mode_set) {
+            s.extend_from_slice(g64.as_bytes());
+            s.extend_from_slice(eol.as_bytes());
         }
         if !restore.is_empty() {
             s.extend_from_slice(restore.as_bytes());

@@ -1149,6 +1149,11 @@ pub(crate) struct MotionWriter {
     pub blend_schedule: Option<BlendSchedule>,
     /// Share of the schedule's `P` in force.
     blend_share: f64,
+    /// A `G64` line (without its end of line) to write before the next line: a bound set
+    /// while no move follows it yet. One set before the first is written replaces it (a
+    /// chain's first block with a share of its own after the run's `P`), so no `G64` is
+    /// written that no move runs under.
+    pub blend_pending: Option<String>,
     /// What moves next to the moves [`MotionWriter::write_moves`] is given.
     pub run_ends: RunEnds,
     /// What moves next to the chain being written.
@@ -1240,6 +1245,7 @@ impl MotionWriter {
             blend_p_mm: None,
             blend_schedule: None,
             blend_share: 1.0,
+            blend_pending: None,
             run_ends: RunEnds::default(),
             chain_ends: RunEnds::default(),
             chain_extra: None,
@@ -1262,6 +1268,10 @@ impl MotionWriter {
     }
 
     pub(crate) fn end<W: fmt::Write>(&mut self, out: &mut W) -> fmt::Result {
+        if let Some(g64) = self.blend_pending.take() {
+            out.write_str(&g64)?;
+            out.write_char('\n')?;
+        }
         out.write_str(&self.line)?;
         out.write_char('\n')
     }
@@ -1916,17 +1926,18 @@ impl MotionWriter {
         }
         for (k, p) in pts.into_iter().enumerate() {
             if let Some(Some(split)) = splits.get(k) {
-                self.set_blend_share(split.shares.0, out)?;
+                self.set_blend_share(split.shares.0);
                 let values = self.chain_values(split.point);
                 self.linear(m, split.point, values.as_ref(), out)?;
-                self.set_blend_share(split.shares.1, out)?;
+                self.set_blend_share(split.shares.1);
             } else if let Some(&share) = shares.get(k) {
-                self.set_blend_share(share, out)?;
+                self.set_blend_share(share);
             }
             let values = self.chain_values(p);
             self.linear(m, p, values.as_ref(), out)?;
         }
-        self.set_blend_share(1.0, out)
+        self.set_blend_share(1.0);
+        Ok(())
     }
 
     /// The schedule's share of `P` for each block of the chain `pts` (from the written
@@ -1959,19 +1970,18 @@ impl MotionWriter {
         (shares, splits)
     }
 
-    /// Writes the schedule's `G64` for `share` of its `P` when another is in force.
-    fn set_blend_share<W: fmt::Write>(&mut self, share: f64, out: &mut W) -> fmt::Result {
+    /// Puts the schedule's `G64` for `share` of its `P` before the next line written, when
+    /// another is in force ([`MotionWriter::blend_pending`]).
+    fn set_blend_share(&mut self, share: f64) {
         let Some(s) = self.blend_schedule else {
-            return Ok(());
+            return;
         };
         if share == self.blend_share {
-            return Ok(());
+            return;
         }
         self.blend_share = share;
         let text = blend_words(s.p_mm * share, s.q_mm, self.frame.scale, self.decimals());
-        self.begin();
-        self.line.push_str(&text);
-        self.end(out)
+        self.blend_pending = Some(text);
     }
 
     /// Writes `dense` as lines and XY arcs within `tol` ([`crate::chain::fit_arcs`]); an
