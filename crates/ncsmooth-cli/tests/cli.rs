@@ -1742,13 +1742,14 @@ fn linuxcnc_blending_follows_the_feed_with_acc() {
 /// before the rapid anyway (0.8 -> 2.1 mm/s there in LinuxCNC 2.9).
 #[test]
 fn linuxcnc_v_stroke_bottom_is_the_programmed_corner_before_a_rapid() {
+    use ncsmooth::geom::ParamCurve;
     let d = tmpdir("linuxcnc_v_stroke");
     let src = "G21 G90 G17\nG0 Z2.54\nG0 X-0.91948 Y4.62026\nG0 Z0\n\
                G1 X-0.90005 Y4.63934 Z-0.0207 F152.4\nG1 X-0.87617 Y4.65910 Z-0.04458\n\
                G1 X-0.85123 Y4.68028 Z-0.06952\nG1 X-0.92075 Y4.74980 Z0\nG0 Z2.54\nM2\n";
     let f = write(&d, "v_stroke.ngc", src.as_bytes());
     let out = d.join("v_stroke-out.ngc");
-    let corner = [-0.85123, 4.68028, -0.06952];
+    let corner = ncsmooth::Vec3::new(-0.85123, 4.68028, -0.06952);
     for method in ["bspline", "arc", "trig", "nurbs"] {
         let o = run(&[
             "smooth",
@@ -1766,27 +1767,17 @@ fn linuxcnc_v_stroke_bottom_is_the_programmed_corner_before_a_rapid() {
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let text = std::fs::read_to_string(&out).unwrap();
-        // The feed blocks' end points, from the plunge's start.
-        let mut pts = vec![[-0.91948, 4.62026, 0.0]];
-        for l in text.lines().filter(|l| l.starts_with("G1 ")) {
-            let mut p = *pts.last().unwrap();
-            for w in l.split(' ') {
-                let v = |s: &str| s.parse::<f64>().unwrap();
-                match w.split_at(1) {
-                    ("X", x) => p[0] = v(x),
-                    ("Y", y) => p[1] = v(y),
-                    ("Z", z) => p[2] = v(z),
-                    _ => {}
-                }
-            }
-            pts.push(p);
-        }
-        let dist = |a: [f64; 3], b: [f64; 3]| {
-            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-        };
+        // The feed blocks' end points, as the project's reader reads the written text.
+        let written = ncsmooth_gcode::parse_str(&text, "out", &Default::default()).unwrap();
+        let pts: Vec<ncsmooth::Vec3> = written
+            .toolpath
+            .moves()
+            .filter(|m| m.kind == ncsmooth::MoveKind::Feed)
+            .map(|m| m.segment.end())
+            .collect();
         let bottom = pts
             .iter()
-            .position(|&p| dist(p, corner) < 1e-4)
+            .position(|&p| p.dist(corner) < 1e-4)
             .unwrap_or_else(|| panic!("{method}: no programmed corner in {pts:?}"));
         // From the corner, one block rises to the end of the cut.
         assert_eq!(bottom + 2, pts.len(), "{method}: {pts:?}");
