@@ -559,6 +559,80 @@ mod tests {
         }
     }
 
+    /// An extruding toolpath through `pts` after `G92 E0`, E at each point from `e`.
+    fn extruding(pts: &[Vec3], e: impl Fn(usize) -> f64) -> Toolpath {
+        let mut tp = Toolpath::new(pts[0]);
+        tp.extra_axes_mask = 1 << 6;
+        tp.push_event(Event {
+            line: 0,
+            kind: EventKind::ExtraReset { to: [0.0; 7] },
+            text: "G92 E0".into(),
+        });
+        for (k, w) in pts.windows(2).enumerate() {
+            let mut m = Move::feed(Line::new(w[0], w[1]), Some(10.0), k as u32 + 1);
+            m.extra = Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, e(k + 1)]);
+            tp.push_move(m);
+        }
+        tp
+    }
+
+    /// A run fitted as one curve puts the extrusion where the program has it along the
+    /// path: each output move ends with the program's E at the foot of its end point,
+    /// however the curve's parameter runs along the lines (before, a 1.55 mm line of
+    /// cncjs_sample_slic3r got its E up to 0.2 mm of path early).
+    #[test]
+    fn a_fitted_run_keeps_the_extrusion_along_the_path() {
+        // Chords of uneven length along a circle of radius 6, 0.05 mm of filament per mm.
+        let chords = [0.2, 0.6, 1.55, 1.55, 1.55, 1.1, 0.6, 1.0, 1.55, 1.2];
+        let (r, mut a) = (6.0, 0.0f64);
+        let mut pts = vec![Vec3::new(r, 0.0, 0.0)];
+        for c in chords {
+            a += 2.0 * (c / (2.0 * r)).asin();
+            pts.push(Vec3::new(r * a.cos(), r * a.sin(), 0.0));
+        }
+        let s_at: Vec<f64> = std::iter::once(0.0)
+            .chain(chords.iter().scan(0.0, |s, c| {
+                *s += c;
+                Some(*s)
+            }))
+            .collect();
+        let rate = 0.05;
+        let tp = extruding(&pts, |k| rate * s_at[k]);
+        // The program's E at the foot of `q` on the polyline.
+        let program_e = |q: Vec3| {
+            let (mut best, mut e) = (f64::INFINITY, 0.0);
+            for k in 0..chords.len() {
+                let (p0, p1) = (pts[k], pts[k + 1]);
+                let d = p1 - p0;
+                let t = ((q - p0).dot(d) / d.norm_sq()).clamp(0.0, 1.0);
+                let dist = q.dist(p0 + d * t);
+                if dist < best {
+                    (best, e) = (dist, rate * (s_at[k] + t * chords[k]));
+                }
+            }
+            e
+        };
+        for method in [Method::Bspline, Method::Arc, Method::Trig] {
+            let o = SmoothOptions {
+                method,
+                tol_mm: 0.01,
+                ..Default::default()
+            };
+            let s = smooth(&tp, &o).unwrap();
+            assert!(s.report.runs_fitted >= 1, "{method:?}: no run");
+            for m in s.toolpath.moves() {
+                let q = m.segment.end();
+                let e = m.extra.unwrap()[6];
+                // Within the extrusion of twice the tolerance along the path.
+                assert!(
+                    (e - program_e(q)).abs() <= rate * 0.02,
+                    "{method:?}: E {e} at {q:?}, the program's {}",
+                    program_e(q)
+                );
+            }
+        }
+    }
+
     #[test]
     fn none_keeps_everything_and_extra_axes_interpolate() {
         let mut tp = Toolpath::new(Vec3::ZERO);

@@ -37,6 +37,11 @@
 //!   joints with curvature steps of a few per cent, where one arc per corner steps between
 //!   zero and `1/R` at every leg.
 //!
+//! Each piece ends, on the chain, at the foot of its end point on the run's polyline
+//! (`Fitted::foot`), not where its parameter would put it: the fit's parameter runs
+//! along the lines at a varying speed, and the extra axes (a slicer's `E`) and feeds
+//! follow these positions ([`super::assemble`]).
+//!
 //! A run whose fit fails stays lines, and the method handles its corners one by one as in
 //! the paper.
 
@@ -66,6 +71,13 @@ pub const TRIG_BAND_MARGIN: f64 = 0.01;
 /// Share of the tolerance taken off the B-spline's band when arcs are to follow it; the
 /// arcs keep within half of it from the B-spline.
 pub const ARC_BAND_MARGIN: f64 = 0.04;
+
+/// How far along the run (mm of its chord-length parameter) a piece end's foot on the
+/// polyline is searched from the parameter's own chord (`Fitted::foot`).
+pub const POS_SEARCH_MM: f64 = 2.0;
+/// Chords whose distance to a piece end is within this share of the tolerance of the
+/// nearest are equally near for `Fitted::foot` (a hairpin narrower than the band).
+pub const POS_TIE_SHARE: f64 = 0.1;
 
 /// Fewest runs in a chain for fitting them on several threads.
 pub const PARALLEL_MIN_RUNS: usize = 16;
@@ -143,17 +155,57 @@ struct Fitted {
 }
 
 impl Fitted {
-    /// Chain position of the run parameter `p` (mm).
-    fn pos_at(&self, p: f64) -> ChainPos {
-        let n = self.u.len() - 1;
-        let j = self.u.partition_point(|&x| x <= p).clamp(1, n) - 1;
+    /// Chain position of the share `f` of chord `j`.
+    fn chord_pos(&self, j: usize, f: f64) -> ChainPos {
         let (index, fa, fb) = self.chords[j];
-        let f = ((p - self.u[j]) / (self.u[j + 1] - self.u[j])).clamp(0.0, 1.0);
+        let f = f.clamp(0.0, 1.0);
         ChainPos {
             index,
             frac: fa + (fb - fa) * f,
         }
     }
+
+    /// Where `q`, the curve's point at the run parameter `p` (mm), lies on the run's
+    /// polyline: its foot on the nearest chord within [`POS_SEARCH_MM`] of `p`, not before
+    /// `after` (a chord and a share of it), among chords about as near (within
+    /// [`POS_TIE_SHARE`] of `tol`) the one whose foot is nearest to `p` in the parameter.
+    ///
+    /// The curve's parameter runs along the polyline at varying speed (a taut spline
+    /// through the band): on cncjs_sample_slic3r, a 1.55 mm line's point at a parameter
+    /// was up to 0.2 mm off the one at the same chord length, so the extrusion put at the
+    /// parameter's position strayed by up to 0.0125 mm of filament.
+    fn foot(&self, q: Vec3, p: f64, after: (usize, f64), tol: f64) -> (usize, f64) {
+        let n = self.u.len() - 1;
+        let lo = self
+            .u
+            .partition_point(|&x| x < p - POS_SEARCH_MM)
+            .saturating_sub(1);
+        let hi = self.u.partition_point(|&x| x <= p + POS_SEARCH_MM).min(n);
+        let cands: Vec<(usize, f64, f64)> = (lo.max(after.0)..hi.max(after.0 + 1).min(n))
+            .map(|j| {
+                let (a, b) = (self.pts[j], self.pts[j + 1]);
+                let d = b - a;
+                let l2 = d.norm_sq();
+                let mut f = if l2 > 0.0 { (q - a).dot(d) / l2 } else { 0.0 };
+                f = f.clamp(0.0, 1.0);
+                if j == after.0 {
+                    f = f.max(after.1);
+                }
+                (j, f, q.dist(a + d * f))
+            })
+            .collect();
+        let best = cands.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
+        let at = |c: &(usize, f64, f64)| {
+            let (j, f, _) = *c;
+            (self.u[j] + (self.u[j + 1] - self.u[j]) * f - p).abs()
+        };
+        cands
+            .iter()
+            .filter(|c| c.2 <= best + POS_TIE_SHARE * tol)
+            .min_by(|x, y| at(x).total_cmp(&at(y)))
+            .map_or(after, |c| (c.0, c.1))
+    }
+
     /// Chain positions of the curve's start and end.
     fn ends(&self) -> (ChainPos, ChainPos) {
         let (i0, f0, _) = self.chords[0];
@@ -435,12 +487,24 @@ pub(crate) fn rewrite_runs(
         report.runs_fitted += 1;
         report.points_per_run.push(f.pts.len());
         report.fit_deviation_per_run_mm.push(f.fit.deviation_mm);
-        for (seg, a, b) in segs {
+        // Each piece ends where its end point's foot on the polyline is, so that the
+        // extra axes (a slicer's E) follow the program along the curve.
+        let mut at = (0, 0.0);
+        let mut from = pos_s;
+        let n_segs = segs.len();
+        for (k, (seg, _, b)) in segs.into_iter().enumerate() {
+            let to = if k + 1 == n_segs {
+                pos_e
+            } else {
+                at = f.foot(seg.end(), b, at, tol);
+                f.chord_pos(at.0, at.1)
+            };
             pieces.push(OutPiece {
                 segment: seg,
-                from: f.pos_at(a),
-                to: f.pos_at(b),
+                from,
+                to,
             });
+            from = to;
         }
         let last = moves[r.last].segment.end();
         if e != last {
