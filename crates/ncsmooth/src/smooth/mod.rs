@@ -17,7 +17,10 @@
 //! [`SmoothOptions::straight_angle_deg`] passes through unchanged. Extra axes (A B C U V W E)
 //! ride along: [`assemble`] gives each output move the extra-axis values of the programmed
 //! path at its end point, interpolated linearly in arc length within the programmed move,
-//! so they are never smoothed. Feeds: an output piece gets the lowest programmed feed of
+//! so they are never smoothed. A vertex where their rate changes
+//! ([`crate::path::extra_rates_agree`]: a slicer's travel meeting an extrusion) is never
+//! rounded: the chain is smoothed stretch by stretch of one rate, so no curve carries one
+//! move's flow into the other. Feeds: an output piece gets the lowest programmed feed of
 //! the moves it spans.
 //!
 //! Non-tangent joints involving an input arc are blended first, the same way for every
@@ -399,6 +402,41 @@ pub(crate) fn smooth_chain(
     opts: &SmoothOptions,
     report: &mut SmoothReport,
 ) -> Vec<Move> {
+    if opts.method == Method::None {
+        return passthrough(chain);
+    }
+    // A vertex where an extra axis's rate changes (a slicer's travel meeting an
+    // extrusion, a retract) stays a sharp corner: each stretch of one flow is smoothed
+    // on its own, so no curve carries one move's flow into the other.
+    let cuts: Vec<usize> = (0..chain.moves.len().saturating_sub(1))
+        .filter(|&i| !screen::same_flow(chain, i))
+        .map(|i| i + 1)
+        .collect();
+    if cuts.is_empty() {
+        return smooth_stretch(chain, opts, report);
+    }
+    let mut out = Vec::with_capacity(chain.moves.len() * 2);
+    let mut from = 0;
+    for to in cuts.into_iter().chain([chain.moves.len()]) {
+        let part = Chain {
+            moves: &chain.moves[from..to],
+            start_extra: match from {
+                0 => chain.start_extra,
+                _ => chain.moves[from - 1].extra,
+            },
+            open_ends: [
+                from == 0 && chain.open_ends[0],
+                to == chain.moves.len() && chain.open_ends[1],
+            ],
+        };
+        out.extend(smooth_stretch(&part, opts, report));
+        from = to;
+    }
+    out
+}
+
+/// [`smooth_chain`] on a stretch of one flow.
+fn smooth_stretch(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
     // Arc joints first (shared by every method), then the method on what that left.
     let curve = match opts.method {
         Method::None => return passthrough(chain),
@@ -574,6 +612,47 @@ mod tests {
             tp.push_move(m);
         }
         tp
+    }
+
+    /// A slicer's travel between two extrusions, all G1 (cncjs_sample_slic3r): the
+    /// vertices where the flow changes stay where they are, and no output move carries
+    /// one move's flow into the other (before, a corner curve spread up to 0.017 mm of
+    /// filament over a travel).
+    #[test]
+    fn a_change_of_flow_keeps_its_vertex() {
+        let pts = [
+            Vec3::ZERO,
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 10.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0),
+        ];
+        // Extrude 1 mm of filament per 10 mm, travel, extrude again.
+        let tp = extruding(&pts, |k| [0.0, 1.0, 1.0, 2.0][k]);
+        for method in [Method::Bspline, Method::Arc, Method::Nurbs, Method::Trig] {
+            let o = SmoothOptions {
+                method,
+                tol_mm: 0.05,
+                ..Default::default()
+            };
+            let s = smooth(&tp, &o).unwrap();
+            let moves: Vec<&Move> = s.toolpath.moves().collect();
+            let mut e0 = 0.0;
+            for m in &moves {
+                let e1 = m.extra.unwrap()[6];
+                let rate = (e1 - e0) / m.segment.arclen(1e-9);
+                assert!(
+                    rate.abs() < 1e-9 || (rate - 0.1).abs() < 1e-6,
+                    "{method:?}: a move at {rate} mm of filament per mm"
+                );
+                e0 = e1;
+            }
+            for v in &pts[1..3] {
+                assert!(
+                    moves.iter().any(|m| m.segment.end().dist(*v) < 1e-12),
+                    "{method:?}: no move ends at {v:?}"
+                );
+            }
+        }
     }
 
     /// A run fitted as one curve puts the extrusion where the program has it along the
