@@ -78,7 +78,8 @@
 //!   the chain unchanged.
 //! * **Closed chains** (last point equals first within [`GAP_TOL_MM`], at least three
 //!   moves) get a transition at the closing corner when
-//!   [`BsplineOptions::smooth_closing_corner`] is set (the default). The chain's ends are
+//!   [`BsplineOptions::smooth_closing_corner`] is set (the default) and the chain is not
+//!   cut where the path goes on ([`super::Chain::open_ends`]). The chain's ends are
 //!   pinned (a rapid or an event happens there and the machine is at rest there), so the
 //!   loop is entered and left through its shoulder point `M`: a half circle (two cubic
 //!   quarter circles) from `Q0` to `M` arriving along the transition's direction, the second half of the closing
@@ -703,7 +704,10 @@ fn closing_corner(
 ) -> Option<Placed> {
     let n = elems.len();
     let moves = em.chain.moves;
-    if !(bopts.smooth_closing_corner && n >= 2 && em.chain.is_closed(GAP_TOL_MM)) {
+    // A chain cut where the path goes on (a stream window, a change of flow) is not
+    // entered from rest: its ends stay as they are.
+    let open = em.chain.open_ends.iter().any(|&o| o);
+    if !(bopts.smooth_closing_corner && n >= 2 && !open && em.chain.is_closed(GAP_TOL_MM)) {
         return None;
     }
     let (last, first) = (&elems[n - 1], &elems[0]);

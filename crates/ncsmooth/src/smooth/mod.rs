@@ -17,10 +17,10 @@
 //! [`SmoothOptions::straight_angle_deg`] passes through unchanged. Extra axes (A B C U V W E)
 //! ride along: [`assemble`] gives each output move the extra-axis values of the programmed
 //! path at its end point, interpolated linearly in arc length within the programmed move,
-//! so they are never smoothed. A vertex where their rate changes
+//! so they are never smoothed. A vertex where the extrusion rate (`E` per mm) changes
 //! ([`crate::path::extra_rates_agree`]: a slicer's travel meeting an extrusion) is never
-//! rounded: the chain is smoothed stretch by stretch of one rate, so no curve carries one
-//! move's flow into the other. Feeds: an output piece gets the lowest programmed feed of
+//! rounded: the chain is smoothed stretch by stretch of one flow, so no curve carries one
+//! move's flow into the other (the other axes ride along the rounded corners). Feeds: an output piece gets the lowest programmed feed of
 //! the moves it spans.
 //!
 //! Non-tangent joints involving an input arc are blended first, the same way for every
@@ -55,7 +55,7 @@ pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
 use crate::path::{ExtraAxes, Move, MoveKind, Toolpath};
-use crate::verify::TANGENT_TOL_DEG;
+use crate::verify::{DEGENERATE_MM, TANGENT_TOL_DEG};
 use serde::Serialize;
 
 /// Accuracy (mm) of arc-length evaluations used to place extra-axis values.
@@ -405,16 +405,14 @@ pub(crate) fn smooth_chain(
     if opts.method == Method::None {
         return passthrough(chain);
     }
-    // A vertex where an extra axis's rate changes (a slicer's travel meeting an
-    // extrusion, a retract) stays a sharp corner: each stretch of one flow is smoothed
-    // on its own, so no curve carries one move's flow into the other.
-    let cuts: Vec<usize> = (0..chain.moves.len().saturating_sub(1))
-        .filter(|&i| !screen::same_flow(chain, i))
-        .map(|i| i + 1)
-        .collect();
+    // A vertex where the extrusion rate changes (a slicer's travel meeting an extrusion,
+    // a prime in place) stays a sharp corner: each stretch of one flow is smoothed on its
+    // own, so no curve carries one move's flow into the other.
+    let cuts = flow_cuts(chain);
     if cuts.is_empty() {
         return smooth_stretch(chain, opts, report);
     }
+    report.corners_stopped += cuts.len();
     let mut out = Vec::with_capacity(chain.moves.len() * 2);
     let mut from = 0;
     for to in cuts.into_iter().chain([chain.moves.len()]) {
@@ -424,9 +422,10 @@ pub(crate) fn smooth_chain(
                 0 => chain.start_extra,
                 _ => chain.moves[from - 1].extra,
             },
+            // The path goes on past a cut: a run there leaves along its line.
             open_ends: [
-                from == 0 && chain.open_ends[0],
-                to == chain.moves.len() && chain.open_ends[1],
+                from > 0 || chain.open_ends[0],
+                to < chain.moves.len() || chain.open_ends[1],
             ],
         };
         out.extend(smooth_stretch(&part, opts, report));
@@ -434,6 +433,48 @@ pub(crate) fn smooth_chain(
     }
     out
 }
+
+/// Index of the extruder `E` among the extra axes ([`crate::path::EXTRA_AXIS_NAMES`]).
+const E_AXIS: usize = 6;
+
+/// The moves of `chain` before which the extrusion rate (`E` per mm of path) leaves the
+/// previous move's by more than [`crate::path::EXTRA_RATE_VARIANCE`]
+/// ([`crate::path::extra_rates_agree`]). A move of no length that leaves `E` alone (a
+/// repeated point) is passed over; one that moves `E` (a prime in place) is a flow of
+/// its own. The other extra axes (rotary A B C, linear U V W) ride along the smoothed
+/// corners as before: their rate per mm of path changes at most vertices of a
+/// multi-axis program.
+fn flow_cuts(chain: &Chain<'_>) -> Vec<usize> {
+    let mut cuts = Vec::new();
+    let mut before = chain.start_extra.map(|v| v[E_AXIS]);
+    let mut last_rate: Option<f64> = None;
+    for (k, m) in chain.moves.iter().enumerate() {
+        let Some(end) = m.extra.map(|v| v[E_AXIS]) else {
+            continue;
+        };
+        let Some(start) = before.replace(end) else {
+            continue;
+        };
+        let len = m.segment.arclen(FLOW_ARCLEN_ACCURACY_MM);
+        let de = end - start;
+        if len <= DEGENERATE_MM && de == 0.0 {
+            continue;
+        }
+        let rate = if len > DEGENERATE_MM {
+            de / len
+        } else {
+            f64::NAN
+        };
+        if last_rate.is_some_and(|r| !crate::path::extra_rates_agree(&[r; 7], &[rate; 7])) {
+            cuts.push(k);
+        }
+        last_rate = Some(rate);
+    }
+    cuts
+}
+
+/// Accuracy (mm) of the move lengths [`flow_cuts`] divides by (lines are exact).
+const FLOW_ARCLEN_ACCURACY_MM: f64 = 1e-6;
 
 /// [`smooth_chain`] on a stretch of one flow.
 fn smooth_stretch(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
@@ -653,6 +694,80 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Only the extrusion cuts a chain: a rotary axis turning at a different rate per mm
+    /// on every move, a repeated point inside an extrusion, leave the corners smoothed;
+    /// `E` moved in place (a prime) cuts on both sides.
+    #[test]
+    fn flow_cuts_follow_the_extrusion_only() {
+        let pts = [
+            Vec3::ZERO,
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 10.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0),
+        ];
+        let tp = extruding(&pts, |k| [0.0, 1.0, 1.0, 2.0, 3.0][k]);
+        let moves: Vec<Move> = tp.moves().cloned().collect();
+        let chain = |moves| Chain {
+            moves,
+            start_extra: Some([0.0; 7]),
+            open_ends: [false; 2],
+        };
+        assert!(flow_cuts(&chain(&moves)).is_empty());
+        // A at 10, 20, 30 degrees per mm, E unchanged: no cut.
+        let mut rotary = moves.clone();
+        for (k, m) in rotary.iter_mut().enumerate() {
+            m.extra.as_mut().unwrap()[0] = [10.0, 100.0, 100.0, 300.0, 600.0][k];
+        }
+        assert!(flow_cuts(&chain(&rotary)).is_empty());
+        // A prime in place at the repeated point: cuts before and after it.
+        let mut prime = moves.clone();
+        for m in prime.iter_mut().skip(1) {
+            m.extra.as_mut().unwrap()[E_AXIS] += 0.5;
+        }
+        assert_eq!(flow_cuts(&chain(&prime)), vec![1, 2]);
+        // Smoothed, the extrusion with a repeated point keeps its corners rounded.
+        let o = SmoothOptions {
+            method: Method::Bspline,
+            tol_mm: 0.05,
+            ..Default::default()
+        };
+        let s = smooth(&tp, &o).unwrap();
+        assert_eq!(s.report.corners_smoothed, 2);
+        assert_eq!(s.report.corners_stopped, 0);
+    }
+
+    /// A closed extrusion loop between two travels is cut from them, but its ends are not
+    /// a stop: `bspline` gives it no closing hooks, and the loop leaves its start along
+    /// its first line.
+    #[test]
+    fn a_cut_loop_is_left_along_its_first_line() {
+        let pts = [
+            Vec3::new(-5.0, -5.0, 0.0),
+            Vec3::ZERO,
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 10.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0),
+            Vec3::ZERO,
+            Vec3::new(-5.0, 5.0, 0.0),
+        ];
+        let tp = extruding(&pts, |k| [0.0, 0.0, 1.0, 2.0, 3.0, 4.0, 4.0][k]);
+        let o = SmoothOptions {
+            method: Method::Bspline,
+            ..Default::default()
+        };
+        let s = smooth(&tp, &o).unwrap();
+        let from_start: Vec<&Move> = s
+            .toolpath
+            .moves()
+            .filter(|m| m.segment.start() == Vec3::ZERO && m.line == 2)
+            .collect();
+        assert_eq!(from_start.len(), 1, "{from_start:?}");
+        let t = from_start[0].segment.start_tangent().unwrap();
+        assert!(t.dist(Vec3::X) < 1e-9, "leaves along {t:?}");
+        assert_eq!(s.report.corners_stopped, 2);
     }
 
     /// A run fitted as one curve puts the extrusion where the program has it along the

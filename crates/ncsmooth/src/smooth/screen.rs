@@ -188,7 +188,7 @@ pub fn screen(chain: &Chain<'_>, opts: &ScreenOptions, tol_mm: f64) -> Vec<Run> 
 
 /// Whether moves `i` and `i + 1` of the chain move their extra axes at one rate (within
 /// [`crate::path::EXTRA_RATE_VARIANCE`]); true without extra axes.
-pub(crate) fn same_flow(chain: &Chain<'_>, i: usize) -> bool {
+fn same_flow(chain: &Chain<'_>, i: usize) -> bool {
     let rate = |k: usize| -> Option<ExtraAxes> {
         let m = &chain.moves[k];
         let end = m.extra?;
