@@ -419,6 +419,10 @@ pub struct SmoothRunReport {
     /// before an extra-axis event or at the end ([`ncsmooth::verify::extra_axes_kept`],
     /// within the rounding); `None` when they agree.
     pub extra_axes_mismatch: Option<ncsmooth::verify::ExtraAxesMismatch>,
+    /// How far the written `E` strays along the path from the program's: the largest
+    /// distance (mm of filament) of a written move end's `E` from the program's over its
+    /// points within tol ([`ncsmooth::verify::extrusion_along_path`]); `None` without `E`.
+    pub extrusion_along_path: Option<ncsmooth::verify::ExtrusionAlongPath>,
     /// Seconds per stage.
     pub timings: Timings,
 }
@@ -826,6 +830,8 @@ fn smooth_program_with(
     let blocks = BlockReport::of(src, &program.toolpath, &gcode, &as_written, dialect);
     let extra_axes_mismatch =
         ncsmooth::verify::extra_axes_kept(&program.toolpath, &as_written, rounding);
+    let extrusion_along_path =
+        ncsmooth::verify::extrusion_along_path(&program.toolpath, &as_written, tol);
     let executed = match (blend, loop_mode) {
         (Some(b), false) => {
             let written = ncsmooth_gcode::parse_bytes(&gcode, name, &Default::default())
@@ -879,6 +885,7 @@ fn smooth_program_with(
             },
         deviation: dev,
         extra_axes_mismatch,
+        extrusion_along_path,
         loops,
         continuity: cont,
         input_continuity: input_cont,

@@ -8,6 +8,7 @@
 //! run written without its `E` words: a printer moving without extruding) is caught
 //! there: the extrusion of the run before the next retract is short by what it lost.
 
+use crate::geom::{Flatten, ParamCurve, Vec3};
 use crate::path::{Block, EventKind, ExtraAxes, Toolpath};
 use serde::Serialize;
 
@@ -139,6 +140,258 @@ pub fn extra_axes_kept(
     None
 }
 
+/// Index of the extruder `E` among the extra axes.
+const E_AXIS: usize = 6;
+
+/// Flattening accuracy of the program's curves for [`extrusion_along_path`], as a share
+/// of its tolerance.
+const ALONG_FLATTEN_SHARE: f64 = 0.05;
+
+/// How far a written program's extrusion strays along the path from the program's
+/// ([`extrusion_along_path`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ExtrusionAlongPath {
+    /// Largest distance (mm of filament) from a written move's end `E` to the range of
+    /// the program's `E` over its points within the tolerance of that end.
+    pub max_e_mm: f64,
+    /// Source line of the written move where it is largest (0: none strays).
+    pub line: u32,
+    /// Written move ends measured.
+    pub points: usize,
+}
+
+/// A piece of the programmed path with its `E` at both ends, in the stretch between two
+/// `E` resets it belongs to.
+#[derive(Clone, Copy, Debug)]
+struct EPiece {
+    a: Vec3,
+    b: Vec3,
+    e: (f64, f64),
+    stretch: u32,
+}
+
+/// The program as [`EPiece`]s: moves flattened within `flatten_mm`, `E` linear in
+/// length along each, and an extra-axis move in place as a piece of no length.
+fn e_pieces(tp: &Toolpath, flatten_mm: f64) -> Vec<EPiece> {
+    let mut out = Vec::new();
+    let (mut stretch, mut e, mut at) = (0u32, None::<f64>, tp.start);
+    for b in &tp.blocks {
+        match b {
+            Block::Move(m) => {
+                let e1 = m.extra.map(|v| v[E_AXIS]);
+                if let (Some(e0), Some(e1)) = (e, e1) {
+                    let mut pts = vec![m.segment.start()];
+                    m.segment.flatten(flatten_mm, &mut |p| pts.push(p));
+                    let len: f64 = pts.windows(2).map(|w| w[0].dist(w[1])).sum();
+                    let mut s = 0.0;
+                    for w in pts.windows(2) {
+                        let e_at = |s: f64| {
+                            if len > 0.0 {
+                                e0 + (e1 - e0) * s / len
+                            } else {
+                                e1
+                            }
+                        };
+                        let s1 = s + w[0].dist(w[1]);
+                        out.push(EPiece {
+                            a: w[0],
+                            b: w[1],
+                            e: (e_at(s), e_at(s1)),
+                            stretch,
+                        });
+                        s = s1;
+                    }
+                }
+                e = e1.or(e);
+                at = m.segment.end();
+            }
+            Block::Event(ev) => {
+                if let EventKind::ExtraReset { .. } = ev.kind {
+                    stretch += 1;
+                }
+                let after = b.extra_after(None).map(|v| v[E_AXIS]);
+                let moves_e = matches!(ev.kind, EventKind::ExtraMove { .. });
+                if let (true, Some(e0), Some(e1)) = (moves_e, e, after) {
+                    out.push(EPiece {
+                        a: at,
+                        b: at,
+                        e: (e0, e1),
+                        stretch,
+                    });
+                }
+                e = after.or(e);
+            }
+        }
+    }
+    out
+}
+
+/// The range of `E` over the points of `p` within `tol` of `q` (`None`: none is).
+fn e_range_near(p: &EPiece, q: Vec3, tol: f64) -> Option<(f64, f64)> {
+    let d = p.b - p.a;
+    let l2 = d.norm_sq();
+    let e_at = |t: f64| p.e.0 + (p.e.1 - p.e.0) * t;
+    if l2 <= 0.0 {
+        return (q.dist(p.a) <= tol).then(|| (p.e.0.min(p.e.1), p.e.0.max(p.e.1)));
+    }
+    // The chord of the ball around `q` on the segment's line, clipped to the segment.
+    let t = (q - p.a).dot(d) / l2;
+    let h2 = tol * tol - (q - (p.a + d * t)).norm_sq();
+    if h2 < 0.0 {
+        return None;
+    }
+    let w = (h2 / l2).sqrt();
+    let (t0, t1) = ((t - w).max(0.0), (t + w).min(1.0));
+    (t0 <= t1).then(|| {
+        let (x, y) = (e_at(t0), e_at(t1));
+        (x.min(y), x.max(y))
+    })
+}
+
+/// How far the written program's extrusion strays along the path: for each written
+/// move's end (in the stretch between the same `E` resets), the distance of its `E` from
+/// the range of the program's `E` over the programmed points within `tol_mm` of that end
+/// (0 inside it). A correct program's written point is where some programmed point within
+/// the tolerance is, with that point's `E` up to the rounding; a flow carried into a
+/// travel, or placed early along a line, shows as a distance. `None` when the program
+/// moves no `E`, or no written end is within `tol_mm` of the program.
+///
+/// [`extra_axes_kept`] checks the values at events and at the end; this checks them
+/// along the path.
+///
+/// ```
+/// use ncsmooth::geom::{Line, Vec3};
+/// use ncsmooth::path::{Block, Move, Toolpath};
+/// use ncsmooth::verify::extrusion_along_path;
+///
+/// // 10 mm extruding 1 mm of filament, written as two moves.
+/// let run = |mid_e: f64| {
+///     let mut tp = Toolpath::new(Vec3::ZERO);
+///     tp.extra_axes_mask = 1 << 6;
+///     let ends = [(5.0, mid_e), (10.0, 1.0)];
+///     let mut at = Vec3::ZERO;
+///     for (x, e) in ends {
+///         let p = Vec3::new(x, 0.0, 0.0);
+///         let mut m = Move::feed(Line::new(at, p), Some(10.0), 1);
+///         m.extra = Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, e]);
+///         tp.blocks.push(Block::Move(m));
+///         at = p;
+///     }
+///     tp
+/// };
+/// let program = run(0.5);
+/// let within = |w: &Toolpath| extrusion_along_path(&program, w, 0.01).unwrap().max_e_mm;
+/// assert_eq!(within(&run(0.5)), 0.0);
+/// // E at the midpoint 0.1 early: 0.1 - 0.001 (the program's E 0.01 mm ahead) beyond it.
+/// assert!((within(&run(0.6)) - 0.099).abs() < 1e-12);
+/// ```
+pub fn extrusion_along_path(
+    program: &Toolpath,
+    written: &Toolpath,
+    tol_mm: f64,
+) -> Option<ExtrusionAlongPath> {
+    if program.extra_axes_mask & (1 << E_AXIS) == 0 || tol_mm.is_nan() || tol_mm <= 0.0 {
+        return None;
+    }
+    let pieces = e_pieces(program, tol_mm * ALONG_FLATTEN_SHARE);
+    let grid = PieceGrid::new(&pieces, tol_mm);
+    let mut out = ExtrusionAlongPath {
+        max_e_mm: 0.0,
+        line: 0,
+        points: 0,
+    };
+    let mut stretch = 0u32;
+    let mut near = Vec::new();
+    for b in &written.blocks {
+        let m = match b {
+            Block::Move(m) => m,
+            Block::Event(ev) => {
+                if let EventKind::ExtraReset { .. } = ev.kind {
+                    stretch += 1;
+                }
+                continue;
+            }
+        };
+        let Some(e) = m.extra.map(|v| v[E_AXIS]) else {
+            continue;
+        };
+        let q = m.segment.end();
+        grid.near(q, &mut near);
+        let range = near
+            .iter()
+            .map(|&k| &pieces[k])
+            .filter(|p| p.stretch == stretch)
+            .filter_map(|p| e_range_near(p, q, tol_mm))
+            .fold(None, |acc: Option<(f64, f64)>, (lo, hi)| {
+                Some(acc.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))))
+            });
+        let Some((lo, hi)) = range else {
+            continue;
+        };
+        out.points += 1;
+        let off = (lo - e).max(e - hi).max(0.0);
+        if off > out.max_e_mm {
+            out.max_e_mm = off;
+            out.line = m.line;
+        }
+    }
+    (out.points > 0).then_some(out)
+}
+
+/// A uniform grid over [`EPiece`]s: each piece is listed in the cells of points along it
+/// at most a cell apart, so a piece within `tol` of a point has one of them within
+/// `tol + cell / 2`, in the point's cell or a neighbour when cells are at least that.
+struct PieceGrid {
+    cell: f64,
+    cells: std::collections::HashMap<[i64; 3], Vec<usize>>,
+}
+
+impl PieceGrid {
+    fn new(pieces: &[EPiece], tol: f64) -> PieceGrid {
+        let cell = (2.0 * tol).max(ALONG_MIN_CELL_MM);
+        let mut g = PieceGrid {
+            cell,
+            cells: std::collections::HashMap::new(),
+        };
+        for (k, p) in pieces.iter().enumerate() {
+            let n = (p.a.dist(p.b) / cell).ceil().max(1.0) as usize;
+            let mut last = None;
+            for i in 0..=n {
+                let key = g.key(p.a + (p.b - p.a) * (i as f64 / n as f64));
+                if last != Some(key) {
+                    g.cells.entry(key).or_default().push(k);
+                    last = Some(key);
+                }
+            }
+        }
+        g
+    }
+
+    fn key(&self, p: Vec3) -> [i64; 3] {
+        [p.x, p.y, p.z].map(|v| (v / self.cell).floor() as i64)
+    }
+
+    /// The pieces listed in `q`'s cell and its 26 neighbours (each once).
+    fn near(&self, q: Vec3, out: &mut Vec<usize>) {
+        out.clear();
+        let c = self.key(q);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(v) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                        out.extend_from_slice(v);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+}
+
+/// Smallest cell of [`PieceGrid`] (mm): a finer grid lists long moves in too many cells.
+const ALONG_MIN_CELL_MM: f64 = 0.5;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -206,5 +459,44 @@ mod tests {
             (m.line, m.axis, m.program, m.written),
             (4, 6, 15.12414, 14.8)
         );
+    }
+
+    /// Each stretch between `E` resets is measured against its own: the second pass over
+    /// the same line, after `G92 E0`, is not excused by the first pass's values there.
+    #[test]
+    fn along_the_path_each_stretch_is_its_own() {
+        let pass = |tp: &mut Toolpath, a: Vec3, b: Vec3, mid_e: f64| {
+            let mid = (a + b) * 0.5;
+            for (p, q, v) in [(a, mid, mid_e), (mid, b, 1.0)] {
+                let mut m = Move::feed(Line::new(p, q), Some(10.0), 1);
+                m.extra = Some(e(v));
+                tp.blocks.push(Block::Move(m));
+            }
+        };
+        let two_passes = |first_mid_e: f64, second_mid_e: f64| {
+            let mut tp = Toolpath::new(Vec3::ZERO);
+            tp.extra_axes_mask = 1 << 6;
+            let (a, b) = (Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0));
+            pass(&mut tp, a, b, first_mid_e);
+            tp.blocks.push(Block::Event(Event {
+                line: 3,
+                kind: EventKind::ExtraReset { to: e(0.0) },
+                text: "G92 E0".into(),
+            }));
+            pass(&mut tp, b, a, second_mid_e);
+            tp
+        };
+        // The first pass extrudes 0.9 of its 1 mm of filament on its first half.
+        let program = two_passes(0.9, 0.5);
+        let along = |w: &Toolpath| extrusion_along_path(&program, w, 0.01).unwrap();
+        assert_eq!(along(&program).max_e_mm, 0.0);
+        assert_eq!(along(&program).points, 4);
+        // 0.9 at the second pass's middle is the first pass's E there, not its own (0.5):
+        // 0.4 off, less the 0.001 of E the tolerance spans.
+        assert!((along(&two_passes(0.9, 0.9)).max_e_mm - 0.399).abs() < 1e-12);
+        // A program without E has nothing to measure.
+        let mut plain = program.clone();
+        plain.extra_axes_mask = 0;
+        assert_eq!(extrusion_along_path(&plain, &program, 0.01), None);
     }
 }

@@ -19,5 +19,7 @@ pub use continuity::{
     CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,
 };
 pub use deviation::{deviation, deviation_segments, deviation_with_vertex_distances, Deviation};
-pub use extra_axes::{extra_axes_kept, ExtraAxesMismatch};
+pub use extra_axes::{
+    extra_axes_kept, extrusion_along_path, ExtraAxesMismatch, ExtrusionAlongPath,
+};
 pub use nearest::PathIndex;
