@@ -1872,6 +1872,7 @@ fn a_travel_between_extrusions_carries_no_extrusion() {
 /// along the whole print (before: 0.012 / 0.017 / 0.017 / 0.021 mm of filament off, a
 /// run's E placed by its fit's parameter and corner curves spreading it into travels).
 #[test]
+#[ignore = "a minute in release; CI runs it with --release --ignored"]
 fn a_slicer_file_keeps_its_extrusion_along_the_path() {
     let file = PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
