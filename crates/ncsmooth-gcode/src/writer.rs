@@ -44,7 +44,7 @@ use std::f64::consts::TAU;
 use std::fmt::{self, Write as _};
 
 /// The bit of `E` (a printer's extrusion) in [`Frame::extra_mask`].
-const E_AXIS_BIT: u8 = 1 << 6;
+const E_AXIS_BIT: u8 = 1 << ncsmooth::path::E_AXIS;
 
 /// Digits `E` gets beyond the coordinates' (5 at the default 4, as slicers write it): a
 /// block of a smoothed print extrudes a few thousandths of a millimetre of filament, and

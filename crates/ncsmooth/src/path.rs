@@ -15,6 +15,9 @@ use serde::{Deserialize, Serialize};
 /// Names of the extra (non-XYZ) axes, in storage order.
 pub const EXTRA_AXIS_NAMES: [char; 7] = ['A', 'B', 'C', 'U', 'V', 'W', 'E'];
 
+/// Index of the extruder `E` (a printer's filament, mm) in [`ExtraAxes`].
+pub const E_AXIS: usize = 6;
+
 /// End values of the extra axes of a move (units as programmed: degrees for rotary axes,
 /// mm for linear ones and for E).
 pub type ExtraAxes = [f64; 7];
@@ -41,9 +44,13 @@ pub fn extra_rate(start: &ExtraAxes, end: &ExtraAxes, len_mm: f64) -> ExtraAxes 
 /// Whether two extra-axis rates ([`extra_rate`]) agree within [`EXTRA_RATE_VARIANCE`] of
 /// the larger on every axis.
 pub fn extra_rates_agree(a: &ExtraAxes, b: &ExtraAxes) -> bool {
-    a.iter()
-        .zip(b)
-        .all(|(&x, &y)| x == y || (x - y).abs() <= EXTRA_RATE_VARIANCE * x.abs().max(y.abs()))
+    a.iter().zip(b).all(|(&x, &y)| rates_agree(x, y))
+}
+
+/// Whether two rates of one axis agree within [`EXTRA_RATE_VARIANCE`] of the larger (NaN
+/// agrees with nothing).
+pub fn rates_agree(x: f64, y: f64) -> bool {
+    x == y || (x - y).abs() <= EXTRA_RATE_VARIANCE * x.abs().max(y.abs())
 }
 
 /// Rapid (G0) or feed (G1/G2/G3 and curves made from them).

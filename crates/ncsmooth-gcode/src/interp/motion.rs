@@ -40,7 +40,7 @@ use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind};
 use crate::Plane;
 use ncsmooth::geom::{Arc, Line, Vec3};
-use ncsmooth::path::{EventKind, ExtraAxes, Move, MoveKind, Units};
+use ncsmooth::path::{EventKind, ExtraAxes, Move, MoveKind, Units, E_AXIS};
 
 /// LinuxCNC's `RADIUS_TOLERANCE_INCH`: the smallest arc radius, and the slack of an R
 /// arc's chord over its diameter (inch).
@@ -57,8 +57,6 @@ pub const SPIRAL_RELATIVE_TOLERANCE: f64 = 0.001;
 /// LinuxCNC's `TINY` of `arc_data_r`: a chord within this share of the diameter is a
 /// semicircle.
 const SEMICIRCLE_TINY: f64 = 1e-12;
-/// Extra axes in [`ExtraAxes`] order after the six of the frames (A B C U V W) come E.
-const E_INDEX: usize = 6;
 
 /// Where a move goes.
 pub(crate) struct Target {
@@ -266,7 +264,7 @@ impl Interp<'_> {
             return None;
         }
         let v = self.val(b'E')? * self.scale();
-        self.tp.extra_axes_mask |= 1 << E_INDEX;
+        self.tp.extra_axes_mask |= 1 << E_AXIS;
         Some(if self.m.e_relative || !self.m.absolute {
             self.e + v
         } else {
@@ -415,7 +413,7 @@ impl Interp<'_> {
         let mut text = String::from(if rapid { "G0" } else { "G1" });
         for (i, &name) in ncsmooth::path::EXTRA_AXIS_NAMES.iter().enumerate() {
             let l = name as u8;
-            let given = if i == E_INDEX {
+            let given = if i == E_AXIS {
                 e.is_some()
             } else {
                 t.commanded & bit(i + 3) != 0

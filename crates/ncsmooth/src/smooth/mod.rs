@@ -54,7 +54,7 @@ pub mod stream;
 pub mod trig_corner;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
-use crate::path::{ExtraAxes, Move, MoveKind, Toolpath};
+use crate::path::{ExtraAxes, Move, MoveKind, Toolpath, E_AXIS};
 use crate::verify::{DEGENERATE_MM, TANGENT_TOL_DEG};
 use serde::Serialize;
 
@@ -434,12 +434,9 @@ pub(crate) fn smooth_chain(
     out
 }
 
-/// Index of the extruder `E` among the extra axes ([`crate::path::EXTRA_AXIS_NAMES`]).
-const E_AXIS: usize = 6;
-
 /// The moves of `chain` before which the extrusion rate (`E` per mm of path) leaves the
 /// previous move's by more than [`crate::path::EXTRA_RATE_VARIANCE`]
-/// ([`crate::path::extra_rates_agree`]). A move of no length that leaves `E` alone (a
+/// ([`crate::path::rates_agree`]). A move of no length that leaves `E` alone (a
 /// repeated point) is passed over; one that moves `E` (a prime in place) is a flow of
 /// its own. The other extra axes (rotary A B C, linear U V W) ride along the smoothed
 /// corners as before: their rate per mm of path changes at most vertices of a
@@ -455,7 +452,7 @@ fn flow_cuts(chain: &Chain<'_>) -> Vec<usize> {
         let Some(start) = before.replace(end) else {
             continue;
         };
-        let len = m.segment.arclen(FLOW_ARCLEN_ACCURACY_MM);
+        let len = m.segment.arclen(screen::FLOW_ARCLEN_ACCURACY_MM);
         let de = end - start;
         if len <= DEGENERATE_MM && de == 0.0 {
             continue;
@@ -465,16 +462,13 @@ fn flow_cuts(chain: &Chain<'_>) -> Vec<usize> {
         } else {
             f64::NAN
         };
-        if last_rate.is_some_and(|r| !crate::path::extra_rates_agree(&[r; 7], &[rate; 7])) {
+        if last_rate.is_some_and(|r| !crate::path::rates_agree(r, rate)) {
             cuts.push(k);
         }
         last_rate = Some(rate);
     }
     cuts
 }
-
-/// Accuracy (mm) of the move lengths [`flow_cuts`] divides by (lines are exact).
-const FLOW_ARCLEN_ACCURACY_MM: f64 = 1e-6;
 
 /// [`smooth_chain`] on a stretch of one flow.
 fn smooth_stretch(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {

@@ -208,8 +208,9 @@ fn same_flow(chain: &Chain<'_>, i: usize) -> bool {
     }
 }
 
-/// Accuracy (mm) of the move lengths [`same_flow`] divides by (lines are exact).
-const FLOW_ARCLEN_ACCURACY_MM: f64 = 1e-6;
+/// Accuracy (mm) of the move lengths [`same_flow`] (and the smoothing's flow cuts)
+/// divide by (lines are exact).
+pub(crate) const FLOW_ARCLEN_ACCURACY_MM: f64 = 1e-6;
 
 #[cfg(test)]
 mod tests {

@@ -9,7 +9,7 @@
 //! there: the extrusion of the run before the next retract is short by what it lost.
 
 use crate::geom::{Flatten, ParamCurve, Vec3};
-use crate::path::{Block, EventKind, ExtraAxes, Toolpath};
+use crate::path::{Block, EventKind, ExtraAxes, Toolpath, E_AXIS};
 use serde::Serialize;
 
 /// Where a written program's extra axes differ from the program's.
@@ -139,9 +139,6 @@ pub fn extra_axes_kept(
     }
     None
 }
-
-/// Index of the extruder `E` among the extra axes.
-const E_AXIS: usize = 6;
 
 /// Flattening accuracy of the program's curves for [`extrusion_along_path`], as a share
 /// of its tolerance.
