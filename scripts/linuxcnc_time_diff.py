@@ -13,7 +13,9 @@ period with t, x, y, z, current_vel, motion_type and line. Prints
   * time per arc-length bin of the reference path, OURS matched to it monotonically (each
     sample to the nearest point of the reference path at most 2 mm ahead of the last
     match, so a path that passes the same place twice is not mixed up), worst bins first,
-    with both runs' lowest speed in the bin.
+    with both runs' lowest speed in the bin;
+  * the bins' differences summed by the reference's lowest speed in the bin (stops and
+    sharp corners, tight turns, cruise): which kind of place the time is lost or won at.
 
 Numbers are seconds at the sampling period (1 ms by default). Needs numpy.
 """
@@ -23,6 +25,9 @@ import numpy as np
 
 PERIOD_S = 0.001
 RAPID = 1
+# Classes of bins by the reference's lowest feed speed in the bin (mm/s): stops and sharp
+# corners, tight corners, turns, curves taken at speed, fast stretches.
+SPEED_CLASSES = ((0.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, 20.0), (20.0, float("inf")))
 MATCH_AHEAD_MM = 2.0
 MATCH_GRID_MM = 0.005
 MATCH_MAX_MM = 0.05
@@ -106,6 +111,21 @@ def main():
         vmin = lambda v: v.min() if len(v) else float("nan")
         print(f"  s {lo:8.1f} mm: {t_ref[k]:.3f} -> {t_ours[k]:.3f} s ({diff[k]:+.3f}), "
               f"lowest speed {vmin(vr):.1f} / {vmin(vo):.1f} mm/s")
+    by_speed(rd, s_ref, diff, a.bin)
+
+
+def by_speed(rd, s_ref, diff, bin_mm):
+    """Prints the bins' time differences summed by the reference's lowest feed speed."""
+    feed = rd["motion_type"].astype(int) != RAPID
+    k = (s_ref[feed] / bin_mm).astype(int)
+    low = np.full(len(diff), np.inf)
+    np.minimum.at(low, k, rd["current_vel"][feed])
+    print("by the reference's lowest feed speed in the bin:")
+    for lo, hi in SPEED_CLASSES:
+        m = (low >= lo) & (low < hi)
+        d = diff[m]
+        print(f"  {lo:4.0f}-{hi:<4.0f} mm/s: {m.sum():4d} bins, {d.sum():+.3f} s "
+              f"(lost {d[d > 0].sum():+.3f}, won {d[d < 0].sum():+.3f})")
 
 
 if __name__ == "__main__":

@@ -64,6 +64,21 @@
 //! Zero-length chords are not allowed (the screening never puts them in a run). A run
 //! whose band cannot be met returns `None` and the method falls back to its
 //! corner-by-corner transitions. Cost: `O(n)` per ADMM iteration (one banded solve).
+//!
+//! The iteration stops at the first iterate inside the band that has *settled*
+//! ([`SETTLE_SHARE`]), which is the minimiser only where the knot spans are of one scale.
+//! Where a run mixes chords of 0.1 um with chords of 0.2 mm (a CAM file's micro-step
+//! clusters), the penalty's entries span many orders of magnitude, `rho` (set from their
+//! sum) keeps each step tiny, and the iteration settles after two or three steps next to
+//! the polyline itself: camotics_vcarve's lines 3700-3900 at 0.00558 mm came out 0.0014 mm
+//! from their polyline with radii of curvature down to 0.0008 mm, where knot spans of at
+//! least 0.02 mm and 4000 iterations give 0.0053 mm and 0.61 mm. That converged fit is
+//! not the default: it shortens ncsmooth's own plans only a little (camotics_vcarve trig
+//! 37.990 -> 37.927 s, linuxcnc_blur_torus 168.055 -> 168.037 s, 50 mm/s, 500 mm/s^2), and
+//! on LinuxCNC 2.9 its evenly bent curves cost what they win (camotics_vcarve trig
+//! 20.195 -> 20.278 s; with runs across repeated points, 20.202 s: 0.058 s won where the
+//! machine cruises through bends, 0.058 s lost accelerating out of stops, where LinuxCNC's
+//! blend arcs over many gentle junctions take half the acceleration).
 
 use super::band_time::{time_shape, TimeShapeOptions};
 use super::screen::ScreenOptions;
