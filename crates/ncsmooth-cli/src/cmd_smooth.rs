@@ -24,6 +24,7 @@
 use crate::{io, load, Ui};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use ncsmooth::smooth::band_fit::BandFitOptions;
 use ncsmooth::smooth::band_time::{TimeLimits, TimeShapeOptions};
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
@@ -712,6 +713,13 @@ fn smooth_program_with(
         tol_mm: curve_tol,
         ..base
     };
+    if blend.is_some() {
+        // LinuxCNC's blends follow the written curve's own radius: the run fit is run to
+        // its minimum (ncsmooth::smooth::band_fit::BandFitOptions::converged).
+        let converged = BandFitOptions::converged();
+        opts.run.fit.min_knot_span_mm = converged.min_knot_span_mm;
+        opts.run.fit.energy_settle_share = converged.energy_settle_share;
+    }
     // Loops are built to the loop size less the rounding: flattening only cuts chords
     // inside a loop (its excursion from the corner cannot grow), rounding moves points.
     let loop_size = match (method, opts.trig.corner) {

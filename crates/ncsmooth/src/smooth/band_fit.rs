@@ -42,7 +42,10 @@
 //! `z` = projection onto the ball or capsule of each row, scaled dual `y`. `rho` is
 //! balanced every [`RHO_EVERY`] iterations against the primal and dual residuals. The
 //! iteration starts from the polyline itself and stops when the samples are within the
-//! band up to [`PRIMAL_SHARE`] of `tol` and the control points have settled.
+//! band up to [`PRIMAL_SHARE`] of `tol` and the control points have settled (and, when
+//! set, the penalty has stopped falling: [`BandFitOptions::energy_settle_share`]). The
+//! initial knots are the points' parameters (at least
+//! [`BandFitOptions::min_knot_span_mm`] apart).
 //!
 //! The result is then **measured** ([`deviation_segments`], proved within `accuracy`) and
 //! accepted only when `measured + accuracy <= tol`. Otherwise (the curve left the band
@@ -65,20 +68,15 @@
 //! whose band cannot be met returns `None` and the method falls back to its
 //! corner-by-corner transitions. Cost: `O(n)` per ADMM iteration (one banded solve).
 //!
-//! The iteration stops at the first iterate inside the band that has *settled*
-//! ([`SETTLE_SHARE`]), which is the minimiser only where the knot spans are of one scale.
-//! Where a run mixes chords of 0.1 um with chords of 0.2 mm (a CAM file's micro-step
-//! clusters), the penalty's entries span many orders of magnitude, `rho` (set from their
-//! sum) keeps each step tiny, and the iteration settles after two or three steps next to
-//! the polyline itself: camotics_vcarve's lines 3700-3900 at 0.00558 mm came out 0.0014 mm
-//! from their polyline with radii of curvature down to 0.0008 mm, where knot spans of at
-//! least 0.02 mm and 4000 iterations give 0.0053 mm and 0.61 mm. That converged fit is
-//! not the default: it shortens ncsmooth's own plans only a little (camotics_vcarve trig
-//! 37.990 -> 37.927 s, linuxcnc_blur_torus 168.055 -> 168.037 s, 50 mm/s, 500 mm/s^2), and
-//! on LinuxCNC 2.9 its evenly bent curves cost what they win (camotics_vcarve trig
-//! 20.195 -> 20.278 s; with runs across repeated points, 20.202 s: 0.058 s won where the
-//! machine cruises through bends, 0.058 s lost accelerating out of stops, where LinuxCNC's
-//! blend arcs over many gentle junctions take half the acceleration).
+//! By default (without the knot spacing and the penalty's stop of
+//! [`BandFitOptions::converged`]) the iteration stops at the first settled iterate. Where a run mixes chords of 0.1 um with chords of 0.2 mm (a CAM
+//! file's micro-step clusters), the penalty's entries span many orders of magnitude, `rho`
+//! (set from their sum) keeps each step tiny, and that iterate lay next to the polyline
+//! itself: camotics_vcarve's lines 3700-3900 at 0.00558 mm came out 0.0014 mm from their
+//! polyline with radii of curvature down to 0.0008 mm; converged, 0.0053 mm and 0.57 mm
+//! (2240 iterations; 0.61 mm after 4000). The micro-steps themselves are merged before the
+//! run mode ([`super::simplify`]). A knot span of 0.02 mm limits how tight a bend the
+//! first solve can follow; the refinement splits spans where the band needs it.
 
 use super::band_time::{time_shape, TimeShapeOptions};
 use super::screen::ScreenOptions;
@@ -113,6 +111,13 @@ const INFEASIBLE_RHO: f64 = 1e8;
 const DENSE_SAMPLES: usize = 16;
 /// Shortest knot span a refinement creates (mm).
 const MIN_SPAN_MM: f64 = 1e-4;
+/// [`BandFitOptions::min_knot_span_mm`] of [`BandFitOptions::converged`].
+pub const MIN_KNOT_SPAN_MM: f64 = 0.02;
+/// [`BandFitOptions::energy_settle_share`] of [`BandFitOptions::converged`].
+pub const ENERGY_SETTLE_SHARE: f64 = 1e-4;
+/// Fewest initial knot spans of a run (the ends' fixed control points leave the rest
+/// free).
+const MIN_SPANS: f64 = 8.0;
 /// Accuracy (mm) of the search for the worst point after a failed measurement.
 const NEAREST_ACCURACY_MM: f64 = 1e-9;
 /// Turn (degrees) per extra knot span of the chords beside a vertex at the start.
@@ -147,6 +152,16 @@ pub struct BandFitOptions {
     /// Reshape the fit for time at its slow spots under these limits
     /// ([`super::band_time`]). Default `None`: the fit as solved.
     pub time_shape: Option<TimeShapeOptions>,
+    /// Shortest initial knot span (mm; at most an eighth of the run): the points' knots
+    /// closer than this to the last one kept are left out (refinement may split spans
+    /// again where the band needs it). Default 0: a knot at every point;
+    /// [`BandFitOptions::converged`] sets [`MIN_KNOT_SPAN_MM`].
+    pub min_knot_span_mm: f64,
+    /// A solve inside the band stops only once the penalty `E(C)` changed by less than
+    /// this share of itself over the last [`RHO_EVERY`] iterations (as well as the control
+    /// points having settled). Default 0: the first settled iterate;
+    /// [`BandFitOptions::converged`] sets [`ENERGY_SETTLE_SHARE`].
+    pub energy_settle_share: f64,
 }
 
 impl Default for BandFitOptions {
@@ -157,6 +172,26 @@ impl Default for BandFitOptions {
             max_iters: 4000,
             max_refinements: 6,
             time_shape: None,
+            min_knot_span_mm: 0.0,
+            energy_settle_share: 0.0,
+        }
+    }
+}
+
+impl BandFitOptions {
+    /// The fit run to its minimum (see Limits in the module doc): initial knot spans of at
+    /// least [`MIN_KNOT_SPAN_MM`] and the stop on the penalty ([`ENERGY_SETTLE_SHARE`]).
+    /// What `ncsmooth smooth` uses for LinuxCNC, whose blends follow the written curve's
+    /// own radius: camotics_vcarve (tol 0.01 mm, 50 mm/s, 500 mm/s^2, LinuxCNC 2.9, with
+    /// the merging of [`MERGE_SHARE`]) bspline / arc / nurbs / trig 20.340 s (trig without
+    /// it) -> 20.125 / 20.095 / 20.111 / 20.141 s. Not the default: on a spiral of
+    /// 0.04 mm chords planned with `--jerk-scheme follow` it took 11.2 s against 8.3 s
+    /// (the filter scheme 9.0 s against 10.6 s).
+    pub fn converged() -> BandFitOptions {
+        BandFitOptions {
+            min_knot_span_mm: MIN_KNOT_SPAN_MM,
+            energy_settle_share: ENERGY_SETTLE_SHARE,
+            ..Default::default()
         }
     }
 }
@@ -172,7 +207,21 @@ pub struct RunOptions {
     pub screen: ScreenOptions,
     /// The fit. Default [`BandFitOptions::default`].
     pub fit: BandFitOptions,
+    /// Share of the method's tolerance within which nearly collinear lines are merged
+    /// before a chain is smoothed ([`super::simplify`]; the method then smooths within
+    /// the rest). Default [`MERGE_SHARE`]; 0 merges nothing. Applies only with `enabled`.
+    pub merge_share: f64,
 }
+
+/// Default [`RunOptions::merge_share`]: 0.3 of the tolerance. camotics_vcarve's clusters
+/// of sub-micrometre steps and its repeated points merge into the corners they round,
+/// which the run fit then takes in one curve (with runs of any length ratio and the fit
+/// run to its minimum): on LinuxCNC 2.9 (tol 0.01 mm, 50 mm/s, 500 mm/s^2, lines)
+/// bspline / arc / nurbs / trig 20.230 / 20.229 / 20.290 / 20.195 s -> 20.125 / 20.095 /
+/// 20.111 / 20.141 s (the input under `G64 P0.01`: 20.112 s). Shares of 0.2 and 0.4
+/// (merging next to lines of any length) gave 20.148 / 20.094 / 20.095 / 20.173 s and
+/// 20.162 / 20.131 / 20.127 / 20.118 s.
+pub const MERGE_SHARE: f64 = 0.3;
 
 impl Default for RunOptions {
     fn default() -> Self {
@@ -180,6 +229,7 @@ impl Default for RunOptions {
             enabled: true,
             screen: ScreenOptions::run_mode(),
             fit: BandFitOptions::default(),
+            merge_share: MERGE_SHARE,
         }
     }
 }
@@ -491,6 +541,18 @@ impl Qp {
         self.fixed.len()
     }
 
+    /// The penalty `E(C)` of the control points `x` (module doc).
+    fn energy(&self, x: &[Vec3]) -> f64 {
+        let m = self.m();
+        (0..m)
+            .map(|j| {
+                (j.saturating_sub(BAND)..(j + BAND + 1).min(m))
+                    .map(|i| x[j].dot(x[i]) * self.penalty.get(j, i))
+                    .sum::<f64>()
+            })
+            .sum()
+    }
+
     /// `C` at the row's parameter.
     fn eval(&self, x: &[Vec3], r: &Row) -> Vec3 {
         let k = r.s - 3;
@@ -541,7 +603,8 @@ struct Solved {
 
 /// ADMM on `qp` (module doc), the samples held within radius `r`, starting from the
 /// polyline or from the curve `prev` of an earlier solve (same parameter).
-fn admm(qp: &Qp, r: f64, tol: f64, max_iters: usize, prev: Option<&Nurbs>) -> Option<Solved> {
+fn admm(qp: &Qp, r: f64, tol: f64, opts: &BandFitOptions, prev: Option<&Nurbs>) -> Option<Solved> {
+    let max_iters = opts.max_iters;
     let m = qp.m();
     let mut z: Vec<Vec3> = qp
         .rows
@@ -567,6 +630,8 @@ fn admm(qp: &Qp, r: f64, tol: f64, max_iters: usize, prev: Option<&Nurbs>) -> Op
     let rho0 = rho;
     let mut worst = f64::INFINITY;
     let mut it = 0;
+    // The penalty at the last check (every RHO_EVERY iterations).
+    let mut energy = f64::INFINITY;
     while it < max_iters {
         it += 1;
         b.copy_from_slice(&c);
@@ -598,8 +663,14 @@ fn admm(qp: &Qp, r: f64, tol: f64, max_iters: usize, prev: Option<&Nurbs>) -> Op
             z[i] = zn;
             worst = worst.max(ax.dist(row.set.foot(ax)) - r);
         }
-        if worst <= eps_p && moved <= eps_x {
-            break;
+        if worst <= eps_p && moved <= eps_x && it % RHO_EVERY == 0 {
+            let e = qp.energy(&x);
+            let settled = opts.energy_settle_share <= 0.0
+                || (energy - e).abs() <= opts.energy_settle_share * e;
+            energy = e;
+            if settled {
+                break;
+            }
         }
         if rho > INFEASIBLE_RHO * rho0 && worst > eps_p {
             // The penalty on the constraints has grown without bringing the samples in:
@@ -710,7 +781,7 @@ fn fit_on(
     let mut prev: Option<Nurbs> = None;
     for _ in 0..=opts.max_refinements {
         let qp = Qp::new(pts, u, &breaks, start, end, opts.smoothing_len_mm)?;
-        let sol = admm(&qp, r, tol_mm, opts.max_iters, prev.as_ref())?;
+        let sol = admm(&qp, r, tol_mm, opts, prev.as_ref())?;
         iterations += sol.iterations;
         let inside = sol.excess <= PRIMAL_SHARE * tol_mm;
         let at = if !inside {
@@ -766,7 +837,7 @@ pub(crate) fn polyline_deviation(
 /// The initial knot breakpoints: the points' parameters, with the chords beside a vertex
 /// turning by `theta` split into `1 + theta / `[`PRE_SPLIT_DEG`] pieces (a sharp turn needs
 /// more freedom than one span per chord; refining it later costs a solve).
-fn initial_breaks(pts: &[Vec3], u: &[f64]) -> Vec<f64> {
+fn initial_breaks(pts: &[Vec3], u: &[f64], min_span_mm: f64) -> Vec<f64> {
     let n = pts.len() - 1;
     let mut pieces = vec![1usize; n];
     for i in 1..n {
@@ -784,7 +855,23 @@ fn initial_breaks(pts: &[Vec3], u: &[f64]) -> Vec<f64> {
         }
     }
     b.push(u[n]);
-    b
+    sparse_breaks(b, min_span_mm.min(u[n] / MIN_SPANS))
+}
+
+/// `breaks` without the interior ones closer than `h` to the last kept or to the end.
+fn sparse_breaks(breaks: Vec<f64>, h: f64) -> Vec<f64> {
+    let (first, last) = (breaks[0], breaks[breaks.len() - 1]);
+    if h.is_nan() || h <= 0.0 {
+        return breaks;
+    }
+    let mut kept = vec![first];
+    for &x in &breaks[1..breaks.len() - 1] {
+        if x - kept[kept.len() - 1] >= h && last - x >= h {
+            kept.push(x);
+        }
+    }
+    kept.push(last);
+    kept
 }
 
 /// Fits the run `pts` (at least 3 points, no zero-length chord) within `tol_mm` (see the
@@ -802,7 +889,7 @@ pub fn band_fit(
         return None;
     }
     let u = chord_params(pts)?;
-    let breaks = initial_breaks(pts, &u);
+    let breaks = initial_breaks(pts, &u, opts.min_knot_span_mm);
     let (mut curve, mut dev, iterations) =
         fit_on(pts, &u, breaks, start, end, tol_mm, accuracy, opts)?;
     if let Some(ts) = &opts.time_shape {
@@ -891,6 +978,42 @@ mod tests {
             .map(|i| f.curve.curvature(i as f64 / 100.0))
             .fold(0.0, f64::max);
         assert!(peak < 0.02, "{peak}");
+    }
+
+    /// Lines of 0.1 mm meeting at 20 degrees through a cluster of 40 steps of 0.1 to
+    /// 1 um (a CAM file's quantised corner): the converged fit uses the band there; the
+    /// default one (a knot at every point, the first settled iterate) stalls next to the
+    /// polyline and keeps the cluster's own kinks.
+    #[test]
+    fn a_cluster_of_micro_steps_does_not_stall_the_fit() {
+        let turn = 20f64.to_radians();
+        let d1 = Vec3::new(turn.cos(), turn.sin(), 0.0);
+        let mut pts: Vec<Vec3> = (0..=10)
+            .map(|i| Vec3::new(-0.1 * (10 - i) as f64, 0.0, 0.0))
+            .collect();
+        let mut p = Vec3::ZERO;
+        for k in 0..40 {
+            let a = turn * (k as f64 + 0.5) / 40.0 + if k % 2 == 0 { 0.6 } else { -0.6 };
+            p += Vec3::new(a.cos(), a.sin(), 0.0) * (1e-4 + 1e-6 * k as f64);
+            pts.push(p);
+        }
+        pts.extend((1..=10).map(|i| p + d1 * (0.1 * i as f64)));
+        let tol = 0.005;
+        let fit = |o: &BandFitOptions| {
+            let f = band_fit(&pts, EndCond::Free, EndCond::Free, tol, 1e-5, o).expect("fits");
+            assert!(f.deviation_mm <= tol);
+            (1..2000)
+                .map(|i| f.curve.curvature(i as f64 / 2000.0))
+                .fold(0.0, f64::max)
+        };
+        let peak = fit(&BandFitOptions::converged());
+        // A circle cutting the corner by 0.95 tol has radius 0.31 mm.
+        assert!(peak < 1.0 / 0.2, "peak curvature {peak} /mm");
+        let stalled = fit(&BandFitOptions::default());
+        assert!(
+            stalled > 1.0 / 0.02,
+            "the first settled iterate keeps the kinks"
+        );
     }
 
     #[test]
