@@ -30,7 +30,7 @@
 //! move they replace.
 
 use crate::geom::{Line, ParamCurve, Segment, Vec3};
-use crate::path::Move;
+use crate::path::{Move, MoveKind};
 use crate::verify::DEGENERATE_MM;
 
 /// Merges the nearly collinear lines of `moves` within `eps_mm` (module doc), dropping
@@ -75,10 +75,13 @@ pub fn merge_lines(moves: &[Move], eps_mm: f64, micro_mm: f64) -> Option<Vec<Mov
     (out.len() < moves.len()).then_some(out)
 }
 
-/// Whether `m` may be merged with its neighbours: a line that carries no extra axes and
-/// is not pinned.
+/// Whether `m` may be merged with its neighbours: a feed line that carries no extra axes
+/// and is not pinned.
 fn mergeable(m: &Move) -> bool {
-    matches!(m.segment, Segment::Line(_)) && m.extra.is_none() && !m.pinned
+    matches!(m.segment, Segment::Line(_))
+        && m.kind == MoveKind::Feed
+        && m.extra.is_none()
+        && !m.pinned
 }
 
 /// End (exclusive) of the group of mergeable moves of one feed starting at `i` (at least
