@@ -934,10 +934,10 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     io::check_outputs(Some(&a.file), &outputs)?;
     // As a LinuxCNC filter (`[FILTER] PROGRAM_EXTENSION`, program on stdout) the progress
     // goes to stderr as `FILTER_PROGRESS=N` lines, which LinuxCNC shows as a bar.
-    let filter = a.output.as_os_str() == "-" && a.dialect == DialectArg::Linuxcnc;
+    let filter = a.output.as_os_str() == "-" && a.dialect == DialectArg::Linuxcnc && !ui.quiet;
     let progress = |percent: u32| {
         if filter {
-            eprintln!("FILTER_PROGRESS={percent}");
+            crate::diag::say(format_args!("FILTER_PROGRESS={percent}"));
         }
     };
     progress(0);

@@ -1,6 +1,22 @@
-//! Rustc-style rendering of parse errors with `ariadne`.
+//! Messages to the terminal: lines on stderr and stdout that never panic, and rustc-style
+//! rendering of parse errors with `ariadne`.
 
 use ncsmooth_gcode::ParseError;
+use std::fmt::Display;
+use std::io::Write;
+
+/// Writes `msg` and a newline to stderr. A closed or broken stderr (a pipe whose reader
+/// went away) is ignored: `eprintln!` would panic there, ending the run with 101 and,
+/// while an output is being written, leaving the run undone for a message nobody reads.
+pub fn say(msg: impl Display) {
+    let _ = writeln!(std::io::stderr().lock(), "{msg}");
+}
+
+/// Writes `text` to stdout (as [`say`], a broken pipe is ignored).
+pub fn print_out(text: impl Display) {
+    let mut out = std::io::stdout().lock();
+    let _ = write!(out, "{text}").and_then(|()| out.flush());
+}
 
 /// Renders `err` against `src` to stderr: file, line and column, a snippet of the line and
 /// a label under the offending text.
@@ -27,7 +43,7 @@ pub fn report_parse_error(err: &ParseError, src: &[u8]) {
         .finish()
         .eprint((name, Source::from(text.as_ref())));
     if rendered.is_err() {
-        eprintln!("error: {msg}");
+        say(format_args!("error: {msg}"));
     }
 }
 
@@ -44,10 +60,10 @@ pub fn report_parse_error_at_line(err: &ParseError, path: &std::path::Path) {
             .and_then(|l| l.ok())
     });
     let Some(line) = text else {
-        eprintln!(
+        say(format_args!(
             "error: {}:{}:{}: {}",
             err.file, err.line, err.column, err.kind
-        );
+        ));
         return;
     };
     // The earlier lines as empty ones keep the line number; the range is rebuilt from the

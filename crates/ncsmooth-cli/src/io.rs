@@ -2,8 +2,8 @@
 //! files are written atomically ([`OutputFile`]: a temporary file in the same directory,
 //! then a rename), so a failure never leaves a partial file behind.
 //!
-//! Temporary files are listed in a registry while they exist: SIGINT, SIGTERM and SIGHUP
-//! remove them before the process exits ([`remove_temp_files_on_signals`]), and a run
+//! Temporary files are listed in a registry while they exist: SIGINT, SIGTERM, SIGHUP and
+//! the other terminating signals remove them before the process exits ([`remove_temp_files_on_signals`]), and a run
 //! removes those that a process that no longer exists (killed by SIGKILL, a crash, a power
 //! cut) left beside its outputs.
 
@@ -30,12 +30,21 @@ fn temp_files() -> MutexGuard<'static, Vec<PathBuf>> {
 #[cfg(unix)]
 const SIGNAL_EXIT_BASE: i32 = 128;
 
-/// Signals on which a run removes its temporary files and exits.
+/// Signals on which a run removes its temporary files and exits: every signal whose
+/// default action ends the process and that a handler may catch (SIGPIPE is ignored by
+/// Rust's runtime: a broken pipe is an error of the write, handled where it happens).
 #[cfg(unix)]
-const TERMINATION_SIGNALS: [i32; 3] = [
+const TERMINATION_SIGNALS: [i32; 10] = [
     signal_hook::consts::SIGINT,
     signal_hook::consts::SIGTERM,
     signal_hook::consts::SIGHUP,
+    signal_hook::consts::SIGQUIT,
+    signal_hook::consts::SIGUSR1,
+    signal_hook::consts::SIGUSR2,
+    signal_hook::consts::SIGALRM,
+    signal_hook::consts::SIGVTALRM,
+    signal_hook::consts::SIGXCPU,
+    signal_hook::consts::SIGXFSZ,
 ];
 
 /// True when `signal` was ignored when the process started (`nohup` ignores SIGHUP, a
@@ -53,7 +62,7 @@ fn ignored_at_start(signal: i32) -> bool {
         .is_some_and(|mask| (1..=64).contains(&signal) && (mask >> (signal - 1)) & 1 == 1)
 }
 
-/// Installs the handling of SIGINT, SIGTERM and SIGHUP (those not ignored at start): a
+/// Installs the handling of the terminating signals (those not ignored at start): a
 /// thread waits for them, removes every registered temporary file and exits with 128 plus
 /// the signal number. Outputs already moved into place stay; none is left half written.
 #[cfg(unix)]
@@ -348,10 +357,15 @@ impl FileIdentity {
 /// `outputs` pairs each output path with the option that named it. `-` (stdout) and
 /// character devices such as `/dev/null` are exempt.
 pub fn check_outputs(input: Option<&str>, outputs: &[(&str, &Path)]) -> Result<()> {
-    // A missing input is reported as such when it is read.
+    // A missing input is reported as such when it is read. Stdin redirected from a file
+    // (`smooth - -o f.ngc < f.ngc`) is that file (Linux's `/dev/stdin` links to it).
     let input = input
-        .filter(|p| *p != "-" && Path::new(p).exists())
-        .and_then(|p| FileIdentity::of(Path::new(p)).map(|id| (p, id)));
+        .map(|p| match p {
+            "-" => (display_name(p), Path::new(STDIN_PATH)),
+            _ => (p, Path::new(p)),
+        })
+        .filter(|(_, path)| path.exists())
+        .and_then(|(name, path)| FileIdentity::of(path).map(|id| (name, id)));
     let mut seen: Vec<(&str, &Path, FileIdentity)> = Vec::with_capacity(outputs.len());
     for &(flag, path) in outputs {
         if path.as_os_str() == "-" {
@@ -383,6 +397,9 @@ pub fn check_outputs(input: Option<&str>, outputs: &[(&str, &Path)]) -> Result<(
     }
     Ok(())
 }
+
+/// Where stdin's file can be looked at (a link to the file or pipe it reads from).
+const STDIN_PATH: &str = "/dev/stdin";
 
 /// Display name of an input path.
 pub fn display_name(path: &str) -> &str {

@@ -2,10 +2,13 @@
 //!
 //! Every subcommand takes an input file or `-` for stdin, writes its outputs atomically,
 //! and exits with 0 on success, 2 on bad input (a parse error is printed as a rustc-style
-//! snippet naming file, line and column) and 1 on an internal error; SIGINT, SIGTERM or
-//! SIGHUP remove the temporary files and exit with 128 plus the signal number. Lengths are
+//! snippet naming file, line and column) and 1 on an internal error; SIGINT, SIGTERM,
+//! SIGHUP and the other terminating signals remove the temporary files and exit with 128
+//! plus the signal number. Lengths are
 //! in mm, speeds in mm/s, accelerations in mm/s^2, jerks in mm/s^3, times in s.
 #![forbid(unsafe_code)]
+// Terminal output goes through `diag::say` and `diag::print_out`, which never panic.
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 mod cmd_compare;
 mod cmd_inspect;
@@ -63,7 +66,7 @@ impl Ui {
     /// Prints a status line to stderr unless quiet.
     pub fn status(&self, msg: impl AsRef<str>) {
         if !self.quiet {
-            eprintln!("{}", msg.as_ref());
+            diag::say(msg.as_ref());
         }
     }
 }
@@ -85,7 +88,7 @@ fn main() -> ExitCode {
     if let Err(e) = io::remove_temp_files_on_signals() {
         // The run can go on; an interruption may then leave a temporary file, which the
         // next run beside the same output removes.
-        eprintln!("warning: {e:#}");
+        diag::say(format_args!("warning: {e:#}"));
     }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -95,11 +98,11 @@ fn main() -> ExitCode {
             {
                 // Parse errors were already rendered with their snippet.
                 if e.downcast_ref::<ncsmooth_gcode::ParseError>().is_none() {
-                    eprintln!("error: {e:#}");
+                    diag::say(format_args!("error: {e:#}"));
                 }
                 ExitCode::from(2)
             } else {
-                eprintln!("internal error: {e:#}");
+                diag::say(format_args!("internal error: {e:#}"));
                 ExitCode::from(1)
             }
         }

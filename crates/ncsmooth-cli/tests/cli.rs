@@ -875,6 +875,45 @@ fn outputs_that_are_the_input_or_each_other_are_refused() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = run(&["plan", xs, "--quiet", "--setpoints", "-", "--report", "-"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Stdin redirected from the file the output names (`smooth - -o x.ngc < x.ngc`).
+    #[cfg(target_os = "linux")]
+    {
+        let o = bin()
+            .args(["smooth", "-", "--method", "none", "-o", xs])
+            .stdin(std::fs::File::open(&x).unwrap())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "stdin: {err}");
+        assert!(err.contains("is the input"), "stdin: {err}");
+        assert_eq!(std::fs::read(&x).unwrap(), src, "stdin changed the program");
+        assert_eq!(listing(), before, "stdin left a file behind");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A closed stderr (`2>&1 | head -0`: the reader is gone) does not end the run: the
+/// status lines are dropped, the output is written and the exit is 0 (`eprintln!` had
+/// panicked with 101 and left no output).
+#[cfg(unix)]
+#[test]
+fn a_closed_stderr_does_not_stop_the_run() {
+    let d = tmpdir("closed-stderr");
+    let x = write(
+        &d,
+        "x.ngc",
+        b"G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\nM2\n",
+    );
+    let out = d.join("out.ngc");
+    let mut child = bin()
+        .args(["smooth", x.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+    assert!(std::fs::read_to_string(&out).unwrap().contains("G1"));
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -1050,12 +1089,19 @@ fn start_long_plan(dir: &Path) -> std::process::Child {
         .unwrap()
 }
 
-/// SIGINT, SIGTERM and SIGHUP during a long plan remove its temporary files (hundreds of
-/// MB of setpoints, the report's) and exit with 128 + the signal number; no output appears.
+/// SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGUSR1 during a long plan remove its temporary
+/// files (hundreds of MB of setpoints, the report's) and exit with 128 + the signal number;
+/// no output appears.
 #[cfg(unix)]
 #[test]
 fn interrupted_plan_removes_its_temporary_files() {
-    for (name, signo) in [("INT", 2), ("TERM", 15), ("HUP", 1)] {
+    for (name, signo) in [
+        ("INT", 2),
+        ("TERM", 15),
+        ("HUP", 1),
+        ("QUIT", 3),
+        ("USR1", 10),
+    ] {
         if ignored_here(signo) {
             eprintln!("SIG{name} is ignored by the test process (inherited): case skipped");
             continue;

@@ -817,6 +817,7 @@ pub fn rewrite(
 
 /// Per line, the program's extra-axis values before its first block (a move's values
 /// are those at its end; an extra-axis move or reset sets them), `None` before any.
+/// Before the first move that carries them, [`Move::extra_start`] (`E` at 0).
 fn extra_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<Option<ExtraAxes>> {
     let mut out: Vec<Option<ExtraAxes>> = vec![None; n_lines];
     let mut seen = vec![false; n_lines];
@@ -826,6 +827,9 @@ fn extra_before_lines(tp: &Toolpath, n_lines: usize) -> Vec<Option<ExtraAxes>> {
             Block::Move(m) => m.line,
             Block::Event(e) => e.line,
         };
+        if let (None, Block::Move(m)) = (last, b) {
+            last = m.extra_start(None);
+        }
         let l = (line as usize).saturating_sub(1);
         if l < n_lines && !seen[l] {
             seen[l] = true;

@@ -1468,7 +1468,15 @@ impl MotionWriter {
             return;
         }
         if let Some(f) = m.feed_mm_s {
-            self.fmt(f * 60.0 / self.frame.scale);
+            // A feed below the last written digit (`F0.00001`) gets the digits it needs:
+            // written as `F0`, the program would not run.
+            let per_min = f * 60.0 / self.frame.scale;
+            let mut decimals = self.decimals();
+            self.fmt_to(per_min, decimals);
+            while self.scratch == "0" && per_min > 0.0 && decimals < MAX_DECIMALS {
+                decimals += 1;
+                self.fmt_to(per_min, decimals);
+            }
             if !self.f_known || self.scratch != self.last_f {
                 self.line.push_str(" F");
                 self.line.push_str(&self.scratch);

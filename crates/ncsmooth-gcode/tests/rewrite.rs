@@ -882,3 +882,78 @@ fn extrusion_keeps_a_slicers_five_decimals() {
     let (text, _) = written_keeping_extra_axes(src, &p, &smoothed, &opts, 0.5e-5 + 1e-9);
     assert!(text.contains(" E0.66534\n"), "{text}");
 }
+
+/// Relative E (`M83`, PrusaSlicer's default) with no `G92 E` before the first extruding
+/// move: E counts from 0, so the first line's extrusion is written along it (it was
+/// taken as already done: the written program extruded half of what the program does).
+/// With absolute E the same program's first line keeps its flow: its start is 0, not
+/// its end (which had put the whole line's extrusion on the corner's first chord).
+#[test]
+fn extrusion_without_a_reset_counts_from_zero() {
+    for mode in ["M83", "M82"] {
+        let e2 = if mode == "M83" { "0.70711" } else { "1.20711" };
+        let src = format!("G21 G90 {mode}\nG1 X0 Y0 F1200\nG1 X10 Y0 E0.5\nG1 X20 Y10 E{e2}\n");
+        let (p, smoothed) = bspline_smoothed(&src);
+        assert!(
+            smoothed.moves().count() > p.toolpath.moves().count(),
+            "not smoothed"
+        );
+        let opts = RewriteOptions::new(4, 1e-3);
+        let (text, _) = written_keeping_extra_axes(&src, &p, &smoothed, &opts, 1e-4);
+        let first = text.lines().nth(2).unwrap();
+        assert!(
+            first.starts_with("G1 X9.") && first.contains(" E0.4"),
+            "{text}"
+        );
+    }
+}
+
+/// A rotary axis indexing with the tool at rest (`G1 X10 A10` at X10, a move of no
+/// length) stays a motion of its own for every method, at a reversal and at a corner:
+/// it was merged into the next line (the table turning while X travelled 10 mm back) or
+/// spread over the corner's curve.
+#[test]
+fn an_indexing_in_place_is_never_spread_over_other_moves() {
+    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+    for end in ["X0", "X10 Y10"] {
+        let src = format!("G21 G90\nG0 X0 Y0 A0\nG1 X10 F600\nG1 X10 A10\nG1 {end}\nM2\n");
+        let p = parse(&src).unwrap();
+        for method in [Method::Trig, Method::Bspline, Method::Arc, Method::Nurbs] {
+            let opts = SmoothOptions {
+                method,
+                tol_mm: 0.05,
+                ..Default::default()
+            };
+            let out = smooth(&p.toolpath, &opts).unwrap().toolpath;
+            let mut a_before = 0.0;
+            for m in out.moves() {
+                let a = m.extra.unwrap()[0];
+                let len = m.segment.start().dist(m.segment.end());
+                assert!(
+                    a == a_before || len == 0.0,
+                    "{method:?} {end}: A {a_before} -> {a} over {len} mm"
+                );
+                a_before = a;
+            }
+            assert_eq!(a_before, 10.0);
+            let text = rewrite(src.as_bytes(), &p, &out, &RewriteOptions::new(4, 1e-3)).unwrap();
+            let text = String::from_utf8(text).unwrap();
+            assert!(text.contains("G1 X10 A10\n"), "{method:?} {end}\n{text}");
+        }
+    }
+}
+
+/// A feed below the written decimals (`F0.00001` mm/min) keeps the digits it needs: it
+/// was written `F0`, which does not read back (a feed move with no feed rate).
+#[test]
+fn a_feed_below_the_last_digit_is_not_written_as_zero() {
+    let src = "G21 G90\nG1 X0 Y0 F0.00001\nG1 X10 Y0\nG1 X10 Y10\nM2\n";
+    let (p, smoothed) = bspline_smoothed(src);
+    let text = rewrite(src.as_bytes(), &p, &smoothed, &RewriteOptions::new(4, 1e-3)).unwrap();
+    let text = String::from_utf8(text).unwrap();
+    let q = parse(&text).unwrap();
+    for m in q.toolpath.moves().filter(|m| m.kind == MoveKind::Feed) {
+        let f = m.feed_mm_s.unwrap() * 60.0;
+        assert!((f - 1e-5).abs() < 1e-12, "F{f}\n{text}");
+    }
+}

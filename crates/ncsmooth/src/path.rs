@@ -118,6 +118,29 @@ impl Move {
     pub fn is_rapid(&self) -> bool {
         self.kind == MoveKind::Rapid
     }
+    /// The extra-axis values at the start of this move, given `before`, those after the
+    /// block before it (`None`: no block before it had extra axes); `None` when the move
+    /// has none. With nothing before it, `E` starts at 0 (the interpreter tracks it from
+    /// 0, as a printer's firmware counts it from power-on) and the other axes at the
+    /// move's own values (an axis a move commands was known before it, so a block before
+    /// it set it).
+    ///
+    /// ```
+    /// use ncsmooth::geom::{Line, Vec3};
+    /// use ncsmooth::path::{Move, E_AXIS};
+    /// let mut m = Move::feed(Line::new(Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0)), None, 2);
+    /// m.extra = Some([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.05]);
+    /// assert_eq!(m.extra_start(None).unwrap()[E_AXIS], 0.0);
+    /// assert_eq!(m.extra_start(Some([1.0; 7])), Some([1.0; 7]));
+    /// ```
+    pub fn extra_start(&self, before: Option<ExtraAxes>) -> Option<ExtraAxes> {
+        let end = self.extra?;
+        Some(before.unwrap_or_else(|| {
+            let mut start = end;
+            start[E_AXIS] = 0.0;
+            start
+        }))
+    }
 }
 
 /// What a non-motion event does, as far as planning is concerned.

@@ -341,11 +341,11 @@ pub fn extra_at(chain: &Chain<'_>, pos: ChainPos) -> Option<ExtraAxes> {
     if pos.frac >= 1.0 {
         return Some(end);
     }
-    let start = if pos.index == 0 {
-        chain.start_extra.unwrap_or(end)
-    } else {
-        chain.moves[pos.index - 1].extra.unwrap_or(end)
+    let before = match pos.index {
+        0 => chain.start_extra,
+        k => chain.moves[k - 1].extra,
     };
+    let start = m.extra_start(before)?;
     let mut v = start;
     for i in 0..v.len() {
         v[i] = start[i] + (end[i] - start[i]) * pos.frac;
@@ -440,27 +440,26 @@ pub(crate) fn smooth_chain(
 
 /// The moves of `chain` before which the extrusion rate (`E` per mm of path) leaves the
 /// previous move's by more than [`crate::path::EXTRA_RATE_VARIANCE`]
-/// ([`crate::path::rates_agree`]). A move of no length that leaves `E` alone (a
-/// repeated point) is passed over; one that moves `E` (a prime in place) is a flow of
-/// its own. The other extra axes (rotary A B C, linear U V W) ride along the smoothed
-/// corners as before: their rate per mm of path changes at most vertices of a
+/// ([`crate::path::rates_agree`]). A move of no length that leaves its extra axes alone
+/// (a repeated point) is passed over; one that moves any (a prime in place, a rotary
+/// axis indexing with the tool at rest) is a motion of its own, never spread over the
+/// moves around it. Otherwise the other extra axes (rotary A B C, linear U V W) ride
+/// along the smoothed corners: their rate per mm of path changes at most vertices of a
 /// multi-axis program.
 fn flow_cuts(chain: &Chain<'_>) -> Vec<usize> {
     let mut cuts = Vec::new();
-    let mut before = chain.start_extra.map(|v| v[E_AXIS]);
+    let mut before = chain.start_extra;
     let mut last_rate: Option<f64> = None;
     for (k, m) in chain.moves.iter().enumerate() {
-        let Some(end) = m.extra.map(|v| v[E_AXIS]) else {
+        let (Some(start), Some(end)) = (m.extra_start(before), m.extra) else {
             continue;
         };
-        let Some(start) = before.replace(end) else {
-            continue;
-        };
+        before = Some(end);
         let len = m.segment.arclen(screen::FLOW_ARCLEN_ACCURACY_MM);
-        let de = end - start;
-        if len <= DEGENERATE_MM && de == 0.0 {
+        if len <= DEGENERATE_MM && start == end {
             continue;
         }
+        let de = end[E_AXIS] - start[E_AXIS];
         let rate = if len > DEGENERATE_MM {
             de / len
         } else {
@@ -729,7 +728,7 @@ mod tests {
 
     /// Only the extrusion cuts a chain: a rotary axis turning at a different rate per mm
     /// on every move, a repeated point inside an extrusion, leave the corners smoothed;
-    /// `E` moved in place (a prime) cuts on both sides.
+    /// `E` moved in place (a prime), or a rotary axis (an indexing), cuts on both sides.
     #[test]
     fn flow_cuts_follow_the_extrusion_only() {
         let pts = [
@@ -747,10 +746,11 @@ mod tests {
             open_ends: [false; 2],
         };
         assert!(flow_cuts(&chain(&moves)).is_empty());
-        // A at 10, 20, 30 degrees per mm, E unchanged: no cut.
+        // A at 1, 9 and 20 degrees per mm (still at the repeated point), E unchanged: no
+        // cut.
         let mut rotary = moves.clone();
         for (k, m) in rotary.iter_mut().enumerate() {
-            m.extra.as_mut().unwrap()[0] = [10.0, 100.0, 100.0, 300.0, 600.0][k];
+            m.extra.as_mut().unwrap()[0] = [10.0, 10.0, 100.0, 300.0][k];
         }
         assert!(flow_cuts(&chain(&rotary)).is_empty());
         // A prime in place at the repeated point: cuts before and after it.
@@ -759,6 +759,12 @@ mod tests {
             m.extra.as_mut().unwrap()[E_AXIS] += 0.5;
         }
         assert_eq!(flow_cuts(&chain(&prime)), vec![1, 2]);
+        // A rotary axis indexing in place at the repeated point (E unchanged): the same.
+        let mut index = moves.clone();
+        for m in index.iter_mut().skip(1) {
+            m.extra.as_mut().unwrap()[0] = 90.0;
+        }
+        assert_eq!(flow_cuts(&chain(&index)), vec![1, 2]);
         // Smoothed, the extrusion with a repeated point keeps its corners rounded.
         let o = SmoothOptions {
             method: Method::Bspline,

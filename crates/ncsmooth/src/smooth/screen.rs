@@ -196,10 +196,11 @@ fn same_flow(chain: &Chain<'_>, i: usize) -> bool {
     let rate = |k: usize| -> Option<ExtraAxes> {
         let m = &chain.moves[k];
         let end = m.extra?;
-        let start = match k {
-            0 => chain.start_extra.unwrap_or(end),
-            _ => chain.moves[k - 1].extra.unwrap_or(end),
+        let before = match k {
+            0 => chain.start_extra,
+            _ => chain.moves[k - 1].extra,
         };
+        let start = m.extra_start(before)?;
         Some(extra_rate(
             &start,
             &end,

@@ -142,7 +142,7 @@ impl StreamSmoother {
         match b {
             Block::Move(m) if m.kind == MoveKind::Feed && !m.pinned => {
                 if self.run.is_empty() {
-                    self.run_start_extra = self.last_extra;
+                    self.run_start_extra = m.extra_start(self.last_extra).or(self.last_extra);
                 }
                 self.last_extra = extra_after;
                 self.run.push(m);
@@ -298,8 +298,7 @@ fn split_move(m: &Move, before: Option<ExtraAxes>) -> (Move, Move) {
         ),
         _ => unreachable!("only lines and arcs are split"),
     };
-    let mid_extra = m.extra.map(|end| {
-        let start = before.unwrap_or(end);
+    let mid_extra = m.extra.zip(m.extra_start(before)).map(|(end, start)| {
         let mut v = start;
         for i in 0..v.len() {
             v[i] = 0.5 * (start[i] + end[i]);
