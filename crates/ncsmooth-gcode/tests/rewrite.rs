@@ -657,10 +657,11 @@ fn a_run_after_a_rapid_starts_from_rest() {
     };
     let rest = first_ps("G0");
     let moving = first_ps("G1");
-    // From rest the vertex after the run's first block (which keeps all of P) gets the
-    // least share, 1/16; arriving at speed along the tangent feed line it needs more.
-    assert_eq!(rest.first(), Some(&0.004), "{rest:?}");
-    assert_eq!(rest.get(1), Some(&0.00025), "{rest:?}");
+    // From rest the run's first block and the vertex after it get the least share,
+    // 1/16 (no blend at the stop); arriving at speed along the tangent feed line the
+    // first block keeps all of P and the vertex after it needs more than the least.
+    assert_eq!(rest.first(), Some(&0.00025), "{rest:?}");
+    assert_eq!(moving.first(), Some(&0.004), "{moving:?}");
     assert!(moving.len() > 1 && moving[1] > 0.0003, "{moving:?}");
 }
 
