@@ -121,6 +121,11 @@ pub const EXECUTED_ACCURACY_SHARE: f64 = 1e-3;
 pub const EXECUTED_MARGIN_SHARE: f64 = 0.02;
 /// Accuracy of the verification, as a share of the tolerance.
 pub const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
+/// Largest `--tol` (mm): a deviation larger than a machine's travel bounds nothing, and
+/// the `G64 P` it gives would not be a number LinuxCNC reads (`--tol 1e308` was written
+/// as such and failed its read-back, exit 1).
+const TOL_MAX_MM: f64 = 1000.0;
+
 /// `FILTER_PROGRESS` (percent) once the program is parsed: parsing is about a fifth of a
 /// run, smoothing, writing and verifying the rest.
 const FILTER_PROGRESS_PARSED: u32 = 20;
@@ -647,10 +652,11 @@ fn smooth_program_with(
     } else {
         tol * DEFAULT_CHORD_SHARE
     });
-    if !(tol > 0.0 && tol.is_finite()) {
-        return Err(
-            io::BadInput(format!("--tol must be a positive length in mm, got {tol}")).into(),
-        );
+    if !(tol > 0.0 && tol <= TOL_MAX_MM) {
+        return Err(io::BadInput(format!(
+            "--tol must be a length in (0, {TOL_MAX_MM}] mm, got {tol}"
+        ))
+        .into());
     }
     if !(chord > 0.0 && chord < tol) {
         return Err(io::BadInput(format!("--chord must be in (0, tol), got {chord}")).into());

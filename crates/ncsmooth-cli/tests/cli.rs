@@ -82,16 +82,21 @@ fn missing_file_and_bad_options_exit_2() {
     let d = tmpdir("opts");
     let f = write(&d, "ok.ngc", b"G21 G1 X1 F100\n");
     let o = d.join("o.ngc");
-    let r = run(&[
-        "smooth",
-        f.to_str().unwrap(),
-        "--tol",
-        "-1",
-        "-o",
-        o.to_str().unwrap(),
-    ]);
-    assert_eq!(r.status.code(), Some(2));
-    assert!(!o.exists());
+    // Negative, NaN, infinite, and larger than any machine (1e308 gave an unreadable
+    // `G64 P`, exit 1).
+    for tol in ["-1", "NaN", "inf", "1e308"] {
+        let r = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            &format!("--tol={tol}"),
+            "-o",
+            o.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "--tol {tol}: {err}");
+        assert!(err.contains("--tol"), "--tol {tol}: {err}");
+        assert!(!o.exists());
+    }
     let r = run(&[
         "smooth",
         f.to_str().unwrap(),
