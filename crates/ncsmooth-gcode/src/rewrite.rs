@@ -668,6 +668,11 @@ pub fn rewrite(
     let resets_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
         matches!(k, EventKind::ExtraReset { .. })
     });
+    // Motions the interpreter could not place (a move from an unknown position): LinuxCNC
+    // runs and blends them, so a run next to one does not start or end at rest.
+    let untracked_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
+        matches!(k, EventKind::Untracked { .. })
+    });
     let setters_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
         matches!(
             k,
@@ -754,12 +759,12 @@ pub fn rewrite(
             r.pending.extend_from_slice(w);
             r.add_program(orig_by[i]);
             if r.w.frame.chain.is_none() {
-                r.flush(&mut s, &orig)?;
+                r.flush(&mut s, &orig, &untracked_before)?;
             }
             r.end_state = info.state;
         } else {
             if let Some(mut r) = region.take() {
-                r.flush(&mut s, &orig)?;
+                r.flush(&mut s, &orig, &untracked_before)?;
                 e_carry = (r.w.relative_e_carry(), resets_before[i]);
                 let after = verbatim_at(i);
                 pending_motion = r.close(&mut s, eol, opts.decimals, after);
@@ -804,7 +809,7 @@ pub fn rewrite(
         }
     }
     if let Some(mut r) = region.take() {
-        r.flush(&mut s, &orig)?;
+        r.flush(&mut s, &orig, &untracked_before)?;
         // Nothing moves after the last run.
         r.close(&mut s, eol, opts.decimals, opts.blend);
     }
@@ -1034,8 +1039,10 @@ impl<'a> Region<'a> {
     /// What moves next to the run in the program (`orig`), for the blend schedule's speed
     /// estimate: the programmed moves just before and after it, at rest at the program's
     /// ends and next to a rapid (LinuxCNC never blends a rapid with a feed move: tp.c
-    /// `tpCheckCanonType` stops between them).
-    fn run_ends(&self, orig: &[&Move]) -> RunEnds {
+    /// `tpCheckCanonType` stops between them). An untracked motion between (counted per
+    /// line in `untracked_before`, see [`extra_events_before_lines`]) is not known: the
+    /// end is free (LinuxCNC may blend with it, so the end keeps all of `P`).
+    fn run_ends(&self, orig: &[&Move], untracked_before: &[u32]) -> RunEnds {
         let Some((lo, hi)) = self.program else {
             return RunEnds::default();
         };
@@ -1043,12 +1050,34 @@ impl<'a> Region<'a> {
             MoveKind::Rapid => RunEnd::Rapid,
             MoveKind::Feed => t.map_or(RunEnd::Free, RunEnd::Joins),
         };
+        // Whether an untracked motion is on a line after move `a`'s (or from the start)
+        // and before move `b`'s (or to the end); lines are 1-based.
+        let before_line = |line: u32| {
+            let l = (line as usize).saturating_sub(1);
+            untracked_before
+                .get(l)
+                .or(untracked_before.last())
+                .copied()
+                .unwrap_or(0)
+        };
+        let total = untracked_before.last().copied().unwrap_or(0);
+        let between = |a: Option<&&Move>, b: Option<&&Move>| {
+            let upto = b.map_or(total, |m| before_line(m.line));
+            let from = a.map_or(0, |m| before_line(m.line + 1));
+            upto > from
+        };
+        let first = orig.get(lo);
+        let last = hi.checked_sub(1).and_then(|k| orig.get(k));
+        let prev = lo.checked_sub(1).and_then(|j| orig.get(j));
+        let next = orig.get(hi);
         RunEnds {
-            before: match lo.checked_sub(1) {
+            before: match prev {
+                _ if between(prev, first) => RunEnd::Free,
                 None => RunEnd::Rest,
-                Some(j) => joins(orig[j], orig[j].segment.end_tangent()),
+                Some(m) => joins(m, m.segment.end_tangent()),
             },
-            after: match orig.get(hi) {
+            after: match next {
+                _ if between(last, next) => RunEnd::Free,
                 None => RunEnd::Rest,
                 Some(m) => joins(m, m.segment.start_tangent()),
             },
@@ -1056,12 +1085,17 @@ impl<'a> Region<'a> {
     }
 
     /// Writes the pending moves (`orig`: the program's moves, for a block floor).
-    fn flush(&mut self, s: &mut Vec<u8>, orig: &[&Move]) -> Result<(), RewriteError> {
+    fn flush(
+        &mut self,
+        s: &mut Vec<u8>,
+        orig: &[&Move],
+        untracked_before: &[u32],
+    ) -> Result<(), RewriteError> {
         let Some(first) = self.pending.first() else {
             return Ok(());
         };
         let line = first.line;
-        self.w.run_ends = self.run_ends(orig);
+        self.w.run_ends = self.run_ends(orig, untracked_before);
         if let Some(f) = self.floor {
             self.w.floor = Some(Floor {
                 program: self.program_polyline(orig, f.tol_mm * FLOOR_PROGRAM_SHARE),

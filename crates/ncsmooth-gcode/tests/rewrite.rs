@@ -618,7 +618,7 @@ fn nurbs_are_written_exactly_span_by_span() {
 #[test]
 fn a_run_after_a_rapid_starts_from_rest() {
     let first_ps = |lead_in: &str| -> Vec<f64> {
-        let src = format!("G21\nG0 X10 Y-5 F3000\n{lead_in} Y0\nG3 X-10 Y0 I-10 J0\nM2\n");
+        let src = format!("G21\n{lead_in} Y0\nG3 X-10 Y0 I-10 J0\nM2\n");
         let p = parse(&src).unwrap();
         // Only the arc is smoothed: flattened into lines.
         let mut out = p.toolpath.clone();
@@ -655,13 +655,17 @@ fn a_run_after_a_rapid_starts_from_rest() {
             .take(3)
             .collect()
     };
-    let rest = first_ps("G0");
-    let moving = first_ps("G1");
+    let rest = first_ps("G0 X10 Y-5 F3000\nG0");
+    let moving = first_ps("G0 X10 Y-5 F3000\nG1");
+    // The program's first move, from an unknown position, is not placed (an untracked
+    // motion): LinuxCNC may blend with it, so the run does not start at rest there.
+    let unknown = first_ps("G1 X10 F3000");
     // From rest the run's first block and the vertex after it get the least share,
     // 1/16 (no blend at the stop); arriving at speed along the tangent feed line the
     // first block keeps all of P and the vertex after it needs more than the least.
     assert_eq!(rest.first(), Some(&0.00025), "{rest:?}");
     assert_eq!(moving.first(), Some(&0.004), "{moving:?}");
+    assert_eq!(unknown.first(), Some(&0.004), "{unknown:?}");
     assert!(moving.len() > 1 && moving[1] > 0.0003, "{moving:?}");
 }
 
@@ -956,5 +960,33 @@ fn a_feed_below_the_last_digit_is_not_written_as_zero() {
     for m in q.toolpath.moves().filter(|m| m.kind == MoveKind::Feed) {
         let f = m.feed_mm_s.unwrap() * 60.0;
         assert!((f - 1e-5).abs() < 1e-12, "F{f}\n{text}");
+    }
+}
+
+/// `G92 A0` makes the rotary axis known at 0: the first move turning it (`G1 X10 A90`)
+/// starts from 0. Its start was taken at the move's own end, the turn lost: the written
+/// program had `A` at NaN and every method exited 1 on this valid program.
+#[test]
+fn a_g92_of_a_rotary_axis_starts_the_moves_after_it() {
+    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+    let src = "G21 G90\nG92 X0 Y0 Z0 A0\nG1 X10 A90 F600\nG1 X20 Y10\nM2\n";
+    let p = parse(src).unwrap();
+    for method in [Method::Trig, Method::Bspline, Method::Arc, Method::Nurbs] {
+        let opts = SmoothOptions {
+            method,
+            tol_mm: 0.05,
+            ..Default::default()
+        };
+        let out = smooth(&p.toolpath, &opts).unwrap().toolpath;
+        // The first piece of the smoothed line ends short of the turn's end.
+        let first = out.moves().next().unwrap();
+        assert!(first.extra.unwrap()[0] < 90.0, "{method:?}: {first:?}");
+        let (text, _) =
+            written_keeping_extra_axes(src, &p, &out, &RewriteOptions::new(4, 1e-3), 1e-4);
+        let line = text.lines().find(|l| l.starts_with("G1 X9.")).unwrap();
+        assert!(
+            line.contains(" A89.") || line.contains(" A8"),
+            "{method:?}\n{text}"
+        );
     }
 }

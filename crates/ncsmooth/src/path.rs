@@ -134,13 +134,19 @@ impl Move {
     /// assert_eq!(m.extra_start(Some([1.0; 7])), Some([1.0; 7]));
     /// ```
     pub fn extra_start(&self, before: Option<ExtraAxes>) -> Option<ExtraAxes> {
-        let end = self.extra?;
-        Some(before.unwrap_or_else(|| {
-            let mut start = end;
-            start[E_AXIS] = 0.0;
-            start
-        }))
+        Some(extra_start_of(before, self.extra?))
     }
+}
+
+/// The extra-axis values where a motion to `end` starts, given `before`, those after the
+/// block before it: `before`, or with nothing before it, `end` with `E` at 0 (see
+/// [`Move::extra_start`]; an extra-axis move, a prime, takes the same rule).
+pub fn extra_start_of(before: Option<ExtraAxes>, end: ExtraAxes) -> ExtraAxes {
+    before.unwrap_or_else(|| {
+        let mut start = end;
+        start[E_AXIS] = 0.0;
+        start
+    })
 }
 
 /// What a non-motion event does, as far as planning is concerned.

@@ -724,6 +724,21 @@ impl Interp<'_> {
                 push_word(&mut text, b'E', e);
             }
         }
+        // Extra axes given (`G92 A0`) are set to known values: the moves after it start
+        // from them (`Move::extra_start` takes an unset axis at the move's own end, which
+        // lost a first `G1 X10 A90` rotation: exit 1 on a valid program).
+        let extra_given = (3..N_AXES)
+            .filter(|&i| v[i].is_some())
+            .fold(0u16, |m, i| m | 1 << i);
+        if extra_given != 0 {
+            self.note_extra_axes(extra_given);
+            let in_use = ((self.tp.extra_axes_mask & 0b11_1111) as u16) << 3;
+            if kind == EventKind::Other && self.f.all_known(in_use) {
+                kind = EventKind::ExtraReset {
+                    to: self.extra_axes(),
+                };
+            }
+        }
         self.event(kind, text);
         Ok(())
     }

@@ -279,7 +279,7 @@ impl Interp<'_> {
     }
 
     /// Marks the extra axes the block uses.
-    fn note_extra_axes(&mut self, commanded: u16) {
+    pub(super) fn note_extra_axes(&mut self, commanded: u16) {
         for i in 3..N_AXES {
             if commanded & bit(i) != 0 {
                 self.tp.extra_axes_mask |= 1 << (i - 3);

@@ -806,7 +806,7 @@ impl<'o> IndexBuilder<'o> {
                 self.add_stop(StopReason::Event, 0.0);
             }
             EventKind::ExtraMove { to, feed_per_s } => {
-                let from = self.machine(self.prog.unwrap_or(to));
+                let from = self.machine(crate::path::extra_start_of(self.prog, to));
                 let rate = feed_per_s
                     .filter(|f| *f > 0.0 && f.is_finite())
                     .unwrap_or_else(|| self.opts.rapid());
@@ -823,7 +823,7 @@ impl<'o> IndexBuilder<'o> {
         let this_no = self.move_no;
         self.move_no += 1;
         let opts = self.opts;
-        let extra_start = self.prog.or(m.extra).map(|v| self.machine(v));
+        let extra_start = m.extra_start(self.prog).map(|v| self.machine(v));
         let extra_end = m.extra.map(|v| self.machine(v));
         self.prog = m.extra.or(self.prog);
         if len.is_nan() || len <= DEGENERATE_MM || !len.is_finite() {

@@ -796,6 +796,62 @@ fn extruder_moves_and_resets() {
     }
 }
 
+/// With nothing setting E before it (no `G92 E0`: E counts from 0), the first extruding
+/// line extrudes along its length, and a first prime in place moves E from 0 (E sat at
+/// the line's end value from the first row, and the prime planned no motion).
+#[test]
+fn extrusion_with_nothing_before_it_starts_at_zero() {
+    use crate::path::{Event, EventKind};
+    let e = |v: f64| [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, v];
+    for prime in [false, true] {
+        let mut tp = Toolpath::new(Vec3::ZERO);
+        tp.extra_axes_mask = 1 << 6;
+        if prime {
+            let kind = EventKind::ExtraMove {
+                to: e(1.0),
+                feed_per_s: Some(30.0),
+            };
+            tp.push_event(Event {
+                line: 1,
+                kind,
+                text: "G1 E1".into(),
+            });
+        }
+        let mut m = Move::feed(
+            Line::new(Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)),
+            Some(20.0),
+            2,
+        );
+        m.extra = Some(e(if prime { 6.0 } else { 5.0 }));
+        tp.push_move(m);
+        let (_, out) = execute(
+            &tp,
+            &PlanOptions::default(),
+            &InterpOptions::default(),
+            Vec::new(),
+        )
+        .unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        let first = &rows[0];
+        let last = rows.last().unwrap();
+        assert_eq!(first[5], 0.0, "prime {prime}: {first:?}");
+        assert!((last[5] - if prime { 6.0 } else { 5.0 }).abs() < 1e-9);
+        // Along the line, E is 0.5 per mm of X (after the prime's 1).
+        let base = if prime { 1.0 } else { 0.0 };
+        for r in rows.iter().filter(|r| r[1] > 0.0) {
+            assert!(
+                (r[5] - base - 0.5 * r[1]).abs() < 1e-6,
+                "prime {prime}: {r:?}"
+            );
+        }
+    }
+}
+
 /// A sink that fails once it has taken `room` bytes.
 struct FailingSink {
     room: usize,

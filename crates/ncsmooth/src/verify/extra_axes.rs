@@ -176,7 +176,9 @@ fn e_pieces(tp: &Toolpath, flatten_mm: f64) -> Vec<EPiece> {
         match b {
             Block::Move(m) => {
                 let e1 = m.extra.map(|v| v[E_AXIS]);
-                if let (Some(e0), Some(e1)) = (e, e1) {
+                // With nothing before it, E starts at 0 (`Move::extra_start`).
+                if let Some(e1) = e1 {
+                    let e0 = e.unwrap_or(0.0);
                     let mut pts = vec![m.segment.start()];
                     m.segment.flatten(flatten_mm, &mut |p| pts.push(p));
                     let len: f64 = pts.windows(2).map(|w| w[0].dist(w[1])).sum();
@@ -208,7 +210,8 @@ fn e_pieces(tp: &Toolpath, flatten_mm: f64) -> Vec<EPiece> {
                 }
                 let after = b.extra_after(None).map(|v| v[E_AXIS]);
                 let moves_e = matches!(ev.kind, EventKind::ExtraMove { .. });
-                if let (true, Some(e0), Some(e1)) = (moves_e, e, after) {
+                if let (true, Some(e1)) = (moves_e, after) {
+                    let e0 = e.unwrap_or(0.0);
                     out.push(EPiece {
                         a: at,
                         b: at,
