@@ -352,7 +352,7 @@ pub fn limits(feed: f64, acc: &str, jerk: Option<&str>, period: f64) -> Result<P
 /// Prints the outcome; failures become the run's error (exit 1).
 pub fn finish(outcome: &Outcome, ui: Ui) -> Result<()> {
     if !ui.quiet {
-        crate::diag::print_out(&outcome.table);
+        crate::io::print_stdout(outcome.table.as_bytes())?;
     }
     ui.status(format!("report: {}", outcome.page.display()));
     if !outcome.failures.is_empty() {

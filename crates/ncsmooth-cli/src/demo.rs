@@ -95,7 +95,7 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
     cmd_compare::finish(&outcome, ui)?;
     // The page's path, always (also with --quiet): it is what the demo is for.
     if ui.quiet {
-        crate::diag::print_out(format_args!("{}\n", outcome.page.display()));
+        crate::io::print_stdout(format!("{}\n", outcome.page.display()).as_bytes())?;
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
-//! Messages to the terminal: lines on stderr and stdout that never panic, and rustc-style
-//! rendering of parse errors with `ariadne`.
+//! Messages to the terminal: status lines on stderr that never panic ([`say`]; stdout goes
+//! through [`crate::io::print_stdout`]), and rustc-style rendering of parse errors with
+//! `ariadne`.
 
 use ncsmooth_gcode::ParseError;
 use std::fmt::Display;
@@ -10,12 +11,6 @@ use std::io::Write;
 /// while an output is being written, leaving the run undone for a message nobody reads.
 pub fn say(msg: impl Display) {
     let _ = writeln!(std::io::stderr().lock(), "{msg}");
-}
-
-/// Writes `text` to stdout (as [`say`], a broken pipe is ignored).
-pub fn print_out(text: impl Display) {
-    let mut out = std::io::stdout().lock();
-    let _ = write!(out, "{text}").and_then(|()| out.flush());
 }
 
 /// Renders `err` against `src` to stderr: file, line and column, a snippet of the line and

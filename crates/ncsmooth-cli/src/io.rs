@@ -30,9 +30,11 @@ fn temp_files() -> MutexGuard<'static, Vec<PathBuf>> {
 #[cfg(unix)]
 const SIGNAL_EXIT_BASE: i32 = 128;
 
-/// Signals on which a run removes its temporary files and exits: every signal whose
-/// default action ends the process and that a handler may catch (SIGPIPE is ignored by
-/// Rust's runtime: a broken pipe is an error of the write, handled where it happens).
+/// Signals on which a run removes its temporary files and exits: those a user, a shell,
+/// a job scheduler or a resource limit sends to end a process (SIGPIPE is ignored by
+/// Rust's runtime: a broken pipe is an error of the write, handled where it happens; the
+/// signals of a crash, SIGSEGV, SIGBUS, SIGABRT, are left to their default, and the next
+/// run removes what a dead process left).
 #[cfg(unix)]
 const TERMINATION_SIGNALS: [i32; 10] = [
     signal_hook::consts::SIGINT,
@@ -353,7 +355,8 @@ impl FileIdentity {
 /// Refuses (bad input, exit 2) a run whose outputs would destroy its input or each other,
 /// before anything is written: an output that is the input file (the same path, a
 /// symbolic link to it or a hard link of it) or the same file as another output of the
-/// run. `input` is the input path (`None` for a built-in input; `-`, stdin, is skipped);
+/// run. `input` is the input path (`None` for a built-in input; `-`, stdin, is the file
+/// it is redirected from, if any);
 /// `outputs` pairs each output path with the option that named it. `-` (stdout) and
 /// character devices such as `/dev/null` are exempt.
 pub fn check_outputs(input: Option<&str>, outputs: &[(&str, &Path)]) -> Result<()> {

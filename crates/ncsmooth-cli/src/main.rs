@@ -7,7 +7,7 @@
 //! plus the signal number. Lengths are
 //! in mm, speeds in mm/s, accelerations in mm/s^2, jerks in mm/s^3, times in s.
 #![forbid(unsafe_code)]
-// Terminal output goes through `diag::say` and `diag::print_out`, which never panic.
+// Terminal output goes through `diag::say` and `io::print_stdout`, which never panic.
 #![deny(clippy::print_stderr, clippy::print_stdout)]
 
 mod cmd_compare;

@@ -829,7 +829,8 @@ impl BlendSchedule {
     }
 
     /// The share of `P` at the vertex ending each of the `n` blocks for the speeds
-    /// `speed` at the blends (the run's end gets all).
+    /// `speed` at the blends (1 at the run's end, which [`BlendSchedule::block_shares`]
+    /// replaces by what the run's end needs).
     fn shares_at(&self, n: usize, blends: &[VertexBlend], speed: &[f64]) -> Vec<f64> {
         let a_n = LINUXCNC_NORMAL_ACC_SHARE * self.acc_mm_s2;
         (0..n)

@@ -20,7 +20,9 @@
 //! so they are never smoothed. A vertex where the extrusion rate (`E` per mm) changes
 //! ([`crate::path::extra_rates_agree`]: a slicer's travel meeting an extrusion) is never
 //! rounded: the chain is smoothed stretch by stretch of one flow, so no curve carries one
-//! move's flow into the other (the other axes ride along the rounded corners). Feeds: an output piece gets the lowest programmed feed of
+//! move's flow into the other (the other axes ride along the rounded corners). A move of
+//! no length that moves an extra axis (a prime, a rotary axis indexing with the tool at
+//! rest) is a stretch of its own, never spread over the moves around it. Feeds: an output piece gets the lowest programmed feed of
 //! the moves it spans.
 //!
 //! Non-tangent joints involving an input arc are blended first, the same way for every
@@ -254,6 +256,16 @@ pub struct Chain<'a> {
 }
 
 impl Chain<'_> {
+    /// The extra-axis values where move `k` starts ([`Move::extra_start`]: after the move
+    /// before it, or the chain's start values; `E` at 0 with nothing before), `None`
+    /// when the move has no extra axes.
+    pub fn extra_start_of(&self, k: usize) -> Option<ExtraAxes> {
+        let before = match k {
+            0 => self.start_extra,
+            _ => self.moves[k - 1].extra,
+        };
+        self.moves[k].extra_start(before)
+    }
     /// True when the chain ends where it starts (a closed contour) with at least 3 moves.
     pub fn is_closed(&self, eps_mm: f64) -> bool {
         self.moves.len() >= 3
@@ -336,16 +348,13 @@ pub fn assemble(chain: &Chain<'_>, pieces: Vec<OutPiece>) -> Vec<Move> {
 
 /// Extra-axis values at a chain position (linear in arc length within the move).
 pub fn extra_at(chain: &Chain<'_>, pos: ChainPos) -> Option<ExtraAxes> {
-    let m = &chain.moves[pos.index.min(chain.moves.len() - 1)];
-    let end = m.extra?;
-    if pos.frac >= 1.0 {
+    let k = pos.index.min(chain.moves.len() - 1);
+    let end = chain.moves[k].extra?;
+    // (A position past the last move is the chain's end.)
+    if pos.frac >= 1.0 || pos.index > k {
         return Some(end);
     }
-    let before = match pos.index {
-        0 => chain.start_extra,
-        k => chain.moves[k - 1].extra,
-    };
-    let start = m.extra_start(before)?;
+    let start = chain.extra_start_of(k)?;
     let mut v = start;
     for i in 0..v.len() {
         v[i] = start[i] + (end[i] - start[i]) * pos.frac;
@@ -439,7 +448,8 @@ pub(crate) fn smooth_chain(
 }
 
 /// The moves of `chain` before which the extrusion rate (`E` per mm of path) leaves the
-/// previous move's by more than [`crate::path::EXTRA_RATE_VARIANCE`]
+/// previous move's by more than [`crate::path::EXTRA_RATE_VARIANCE`], and on both sides of
+/// a motion in place
 /// ([`crate::path::rates_agree`]). A move of no length that leaves its extra axes alone
 /// (a repeated point) is passed over; one that moves any (a prime in place, a rotary
 /// axis indexing with the tool at rest) is a motion of its own, never spread over the
@@ -726,11 +736,12 @@ mod tests {
         }
     }
 
-    /// Only the extrusion cuts a chain: a rotary axis turning at a different rate per mm
-    /// on every move, a repeated point inside an extrusion, leave the corners smoothed;
-    /// `E` moved in place (a prime), or a rotary axis (an indexing), cuts on both sides.
+    /// Only the extrusion and motions in place cut a chain: a rotary axis turning at a
+    /// different rate per mm on every move, a repeated point inside an extrusion, leave
+    /// the corners smoothed; `E` moved in place (a prime), or a rotary axis (an
+    /// indexing), cuts on both sides.
     #[test]
-    fn flow_cuts_follow_the_extrusion_only() {
+    fn flow_cuts_follow_the_extrusion_and_motions_in_place() {
         let pts = [
             Vec3::ZERO,
             Vec3::new(10.0, 0.0, 0.0),

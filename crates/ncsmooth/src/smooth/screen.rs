@@ -196,11 +196,7 @@ fn same_flow(chain: &Chain<'_>, i: usize) -> bool {
     let rate = |k: usize| -> Option<ExtraAxes> {
         let m = &chain.moves[k];
         let end = m.extra?;
-        let before = match k {
-            0 => chain.start_extra,
-            _ => chain.moves[k - 1].extra,
-        };
-        let start = m.extra_start(before)?;
+        let start = chain.extra_start_of(k)?;
         Some(extra_rate(
             &start,
             &end,
