@@ -529,15 +529,20 @@ fn long_lines_join_the_pieces_of_a_run() {
 
 /// `src` parsed, and smoothed by the B-spline method within 0.05 mm.
 fn bspline_smoothed(src: &str) -> (Program, Toolpath) {
-    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
     let p = parse(src).unwrap();
+    let smoothed = smoothed_with(&p, ncsmooth::smooth::Method::Bspline);
+    (p, smoothed)
+}
+
+/// `p` smoothed by `method` within 0.05 mm.
+fn smoothed_with(p: &Program, method: ncsmooth::smooth::Method) -> Toolpath {
+    use ncsmooth::smooth::{smooth, SmoothOptions};
     let opts = SmoothOptions {
-        method: Method::Bspline,
+        method,
         tol_mm: 0.05,
         ..Default::default()
     };
-    let smoothed = smooth(&p.toolpath, &opts).unwrap().toolpath;
-    (p, smoothed)
+    smooth(&p.toolpath, &opts).unwrap().toolpath
 }
 
 /// `G5`: the B-spline method's corner curves (cubic Béziers) are written exactly: read
@@ -919,17 +924,12 @@ fn extrusion_without_a_reset_counts_from_zero() {
 /// spread over the corner's curve.
 #[test]
 fn an_indexing_in_place_is_never_spread_over_other_moves() {
-    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+    use ncsmooth::smooth::Method;
     for end in ["X0", "X10 Y10"] {
         let src = format!("G21 G90\nG0 X0 Y0 A0\nG1 X10 F600\nG1 X10 A10\nG1 {end}\nM2\n");
         let p = parse(&src).unwrap();
         for method in [Method::Trig, Method::Bspline, Method::Arc, Method::Nurbs] {
-            let opts = SmoothOptions {
-                method,
-                tol_mm: 0.05,
-                ..Default::default()
-            };
-            let out = smooth(&p.toolpath, &opts).unwrap().toolpath;
+            let out = smoothed_with(&p, method);
             let mut a_before = 0.0;
             for m in out.moves() {
                 let a = m.extra.unwrap()[0];
@@ -968,16 +968,11 @@ fn a_feed_below_the_last_digit_is_not_written_as_zero() {
 /// program had `A` at NaN and every method exited 1 on this valid program.
 #[test]
 fn a_g92_of_a_rotary_axis_starts_the_moves_after_it() {
-    use ncsmooth::smooth::{smooth, Method, SmoothOptions};
+    use ncsmooth::smooth::Method;
     let src = "G21 G90\nG92 X0 Y0 Z0 A0\nG1 X10 A90 F600\nG1 X20 Y10\nM2\n";
     let p = parse(src).unwrap();
     for method in [Method::Trig, Method::Bspline, Method::Arc, Method::Nurbs] {
-        let opts = SmoothOptions {
-            method,
-            tol_mm: 0.05,
-            ..Default::default()
-        };
-        let out = smooth(&p.toolpath, &opts).unwrap().toolpath;
+        let out = smoothed_with(&p, method);
         // The first piece of the smoothed line ends short of the turn's end.
         let first = out.moves().next().unwrap();
         assert!(first.extra.unwrap()[0] < 90.0, "{method:?}: {first:?}");
