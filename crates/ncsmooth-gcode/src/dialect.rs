@@ -134,6 +134,15 @@ impl Dialect {
         !matches!(self, Dialect::LinuxCnc)
     }
 
+    /// Whether the controller runs a centre-format arc whose end is off the circle of its
+    /// start (within the reader's tolerance) as LinuxCNC does: a spiral about the
+    /// programmed centre, the radius linear in the angle (posemath's `pmCirclePoint`).
+    /// grbl and Marlin go round the start's circle and end with a straight piece to the
+    /// end point (grbl's `mc_arc`); the others are not known to spiral.
+    pub fn runs_spirals(self) -> bool {
+        self == Dialect::LinuxCnc
+    }
+
     /// Whether the controller reads `G5` cubic Béziers (XY plane).
     pub fn has_g5(self) -> bool {
         matches!(self, Dialect::LinuxCnc | Dialect::GrblHal | Dialect::Marlin)

@@ -393,8 +393,9 @@ fn region_sup(b: &BlendArc, prog: &mut PathIndex, mut best: f64, slack: f64) -> 
 /// The largest distance to the programmed path over `seg` from `t0` to `t1`, or `best`
 /// when that is larger (within `slack`): branch and bound, the distance to one programmed
 /// line being convex along a line (so at most its larger end value), else 1-Lipschitz
-/// along the length. `None` for a curve other than a line or an arc (whose parameter is
-/// not proportional to its length), or when the bound does not settle.
+/// along the length (the parameter's speed bounded by the line's length or the arc's
+/// [`ncsmooth::geom::Arc::max_speed`]). `None` for a curve other than a line or an arc, or when the bound
+/// does not settle.
 fn half_sup(
     seg: &Segment,
     t0: f64,
@@ -405,7 +406,7 @@ fn half_sup(
 ) -> Option<f64> {
     let (len, straight) = match seg {
         Segment::Line(l) => (l.length(), true),
-        Segment::Arc(a) => (a.length(), false),
+        Segment::Arc(a) => (a.max_speed(), false),
         _ => return None,
     };
     let mut stack = vec![(t0, t1)];

@@ -67,9 +67,15 @@ pub struct RewriteOptions {
     /// Planes in which arcs may be written as `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2
     /// G19); arcs in other planes are flattened. Default all.
     pub arc_planes: u8,
-    /// Write every replaceable line through the emitter, changed or not (compressing a
-    /// program's own G1 runs with [`Emit::Lines`] or [`Emit::Arcs`]). Default false:
-    /// unchanged lines are copied verbatim.
+    /// Whether the controller runs a `G2`/`G3` whose end is off the circle of its start as
+    /// LinuxCNC does, a spiral about the programmed centre ([`crate::Dialect::runs_spirals`]).
+    /// When false, a spiral arc whose radii differ by more than half the chord tolerance
+    /// is flattened. Default true.
+    pub spiral_arcs: bool,
+    /// Write every replaceable line with feed motion through the emitter, changed or not
+    /// (compressing a program's own G1 runs with [`Emit::Lines`] or [`Emit::Arcs`]); a
+    /// line of rapids only is copied (a rapid is the program's). Default false: unchanged
+    /// lines are copied verbatim.
     pub rewrite_unchanged: bool,
     /// Under [`Emit::Lines`], [`Emit::G5`] and [`Emit::Nurbs`]: blocks shorter than the
     /// floor are lifted where the written path stays within its tolerance of the
@@ -138,6 +144,7 @@ impl Default for RewriteOptions {
             blend: None,
             verbatim_blend: None,
             arc_planes: 0b111,
+            spiral_arcs: true,
             rewrite_unchanged: false,
             block_floor: None,
             long_arcs: true,
@@ -227,6 +234,7 @@ impl RewriteOptions {
     pub fn for_dialect(self, dialect: crate::Dialect, blend: Option<Blend>) -> RewriteOptions {
         RewriteOptions {
             arc_planes: dialect.arc_planes(),
+            spiral_arcs: dialect.runs_spirals(),
             long_arcs: dialect.keeps_long_arcs(),
             blend: if dialect.blends() { blend } else { None },
             ..self
@@ -525,7 +533,7 @@ fn restart_at(next: &Segment, after: &Segment, corner: Vec3) -> Option<Segment> 
     match (next, after) {
         (Segment::Line(n), Segment::Line(_)) => Some(Line::new(corner, n.p1).into()),
         (Segment::Arc(n), Segment::Arc(p)) if same_circle(n, p) => {
-            Arc::from_center(corner, n.end(), p.center, p.normal(), true, 0).map(Into::into)
+            Arc::from_center_spiral(corner, n.end(), p.center, p.normal(), true, 0).map(Into::into)
         }
         _ => None,
     }
@@ -574,7 +582,7 @@ fn arc_joint_corners(
             {
                 return None;
             }
-            let arc = Arc::from_center(a.start(), corner, p.center, p.normal(), true, 0)?;
+            let arc = Arc::from_center_spiral(a.start(), corner, p.center, p.normal(), true, 0)?;
             let rest = restart_at(&next.segment, after, corner)?;
             Some((k, arc, rest, v.extra))
         })
@@ -1167,6 +1175,7 @@ impl<'a> Region<'a> {
             g5: matches!(opts.emit, Emit::G5 { .. } | Emit::Nurbs { .. }),
             nurbs: matches!(opts.emit, Emit::Nurbs { .. }),
             arc_planes: opts.arc_planes,
+            spiral_arcs: opts.spiral_arcs,
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);

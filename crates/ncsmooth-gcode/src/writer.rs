@@ -319,6 +319,9 @@ pub(crate) struct Frame {
     pub chain: Option<ChainMode>,
     /// Planes for `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2 G19).
     pub arc_planes: u8,
+    /// Spiral arcs (end radius off the start radius) are written as `G2`/`G3`; when false
+    /// only those within half the chord of a circle are.
+    pub spiral_arcs: bool,
     /// Cubic Béziers in the XY plane are written as `G5` (exact).
     pub g5: bool,
     /// NURBS in the XY plane are written as `G5.2`/`G5.3`, one per Bézier span (exact).
@@ -339,6 +342,7 @@ impl Default for Frame {
             extra_mask: 0,
             chain: None,
             arc_planes: 0b111,
+            spiral_arcs: true,
             g5: false,
             nurbs: false,
         }
@@ -2096,6 +2100,11 @@ impl MotionWriter {
             return Ok(false);
         };
         if self.frame.arc_planes & (1 << (plane - 17)) == 0 {
+            return Ok(false);
+        }
+        // A controller that runs the start's circle would leave the spiral by up to its
+        // change of radius.
+        if !self.frame.spiral_arcs && a.spiral.abs() > 0.5 * self.chord() {
             return Ok(false);
         }
         let unit = self.unit_mm();

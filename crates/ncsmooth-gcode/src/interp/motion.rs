@@ -20,9 +20,9 @@
 //! and end radii may differ by at most LinuxCNC's rule (`README.arc-radius-tolerance` of
 //! its interpreter tests): with `t_abs` = 2 x 0.01 mm x sqrt(2) (metric) or 2 x 0.001 inch
 //! x sqrt(2) (imperial) and `t_rel` = 0.001, an arc fails when `|r1 - r2| > 100 t_abs`, or
-//! when `|r1 - r2| > t_abs` and `|r1 - r2| / max(r1, r2) > t_rel`. LinuxCNC then runs a
-//! spiral; ncsmooth moves the centre onto the chord's bisector
-//! ([`Arc::from_center`]), within the same tolerance of it.
+//! when `|r1 - r2| > t_abs` and `|r1 - r2| / max(r1, r2) > t_rel`. Within it the arc is
+//! LinuxCNC's spiral about the programmed centre, its radius linear in the angle from
+//! `r1` to `r2` ([`Arc::from_center_spiral`], [`Arc::spiral`]).
 //!
 //! Radius format (`arc_data_r`): a negative R takes the long way; a chord longer than the
 //! diameter by more than [`RADIUS_TOLERANCE_MM`] (0.00005 inch in inch programs) is an
@@ -499,7 +499,7 @@ impl Interp<'_> {
         let start = axes_vec(&self.f.pos);
         let end = axes_vec(&t.pos);
         let center = self.arc_center(start, end, (a, b), (la, lb), ccw, turns)?;
-        let arc = Arc::from_center(start, end, center, n, ccw, turns)
+        let arc = Arc::from_center_spiral(start, end, center, n, ccw, turns)
             .ok_or_else(|| self.err_line(ParseErrorKind::ArcDegenerate { why: "zero radius" }))?;
         let mut mv = Move::feed(arc, self.m.feed, self.line_no);
         self.go_to(&t);

@@ -1,11 +1,17 @@
 //! Circular arcs in any plane, optionally helical (a linear motion along the plane normal
-//! accompanies the rotation, as G2/G3 with the third axis do). Every operation is exact
-//! (closed form) except the nearest point on a *helical* arc, which is numerical.
+//! accompanies the rotation, as G2/G3 with the third axis do) and optionally spiral (the
+//! radius changes linearly with the angle, as LinuxCNC runs a centre-format arc whose end
+//! is not on the circle of its start). Every operation is exact (closed form) except the
+//! nearest point on a helical or spiral arc, which is numerical, and the parameter at an
+//! arc length on a spiral, which is Newton's to 1e-12 of the length.
 //!
-//! Representation: `C(t) = c + r (cos(phi t) u + sin(phi t) v) + t h` for `t in [0, 1]`,
-//! with `u`, `v` orthonormal in the plane of the arc (`u` towards the start, `v` the
-//! direction of motion at the start), `phi > 0` the swept angle (may exceed `2 pi` for
-//! multi-turn arcs) and `h` the helical displacement, parallel to `n = u x v`.
+//! Representation: `C(t) = c + (r + s t) (cos(phi t) u + sin(phi t) v) + t h` for
+//! `t in [0, 1]`, with `u`, `v` orthonormal in the plane of the arc (`u` towards the start,
+//! `v` the direction of motion at the start), `phi > 0` the swept angle (may exceed `2 pi`
+//! for multi-turn arcs), `h` the helical displacement, parallel to `n = u x v`, and `s` the
+//! spiral: the end radius less the start radius (LinuxCNC's `PmCircle::spiral`, whose
+//! `pmCirclePoint` puts the radius at `r + s theta / phi`). Circles have `s = 0`, and every
+//! result of a circle is computed by the circle's own formulas.
 
 use super::traits::*;
 use super::vec3::{Aabb, Vec3};
@@ -27,64 +33,83 @@ pub struct Arc {
     pub sweep: f64,
     /// Helical displacement over the whole arc, along `u x v` (zero for planar arcs).
     pub axial: Vec3,
+    /// End radius less start radius (mm): the radius at `t` is `radius + spiral t`. Zero
+    /// for a circle; LinuxCNC's spiral for a centre-format arc whose end radius differs
+    /// from its start radius (within its interpreter's tolerance).
+    #[serde(default)]
+    pub spiral: f64,
 }
 
 /// Chord between an arc's in-plane ends, as a share of its radius, below which the ends
 /// coincide and the arc is a full circle (rounding of the end point).
 pub const FULL_CIRCLE_CHORD_SHARE: f64 = 1e-12;
 
-impl Arc {
-    /// Arc from `start` to `end` about the axis `axis` (unit normal of the arc plane)
-    /// through `center`. `ccw` means a positive (right-handed) rotation about `axis`.
-    /// `turns` adds full extra turns (G-code `P` word minus one). When `start` and `end`
-    /// coincide in the plane the arc is a full circle.
-    ///
-    /// The component of `end - start` along `axis` becomes the helical displacement.
-    /// When the start and end radii differ (G-code rounding), the centre is moved to the
-    /// point of the perpendicular bisector of the in-plane chord nearest the given centre,
-    /// so that the arc ends exactly at `end`; callers that must reject inconsistent
-    /// arcs check the radii before. Returns `None` for a zero radius or non-finite input.
-    pub fn from_center(
-        start: Vec3,
-        end: Vec3,
-        center: Vec3,
-        axis: Vec3,
-        ccw: bool,
-        turns: u32,
-    ) -> Option<Arc> {
+/// Difference of the end radius from the start radius, as a share of the start radius, up
+/// to which [`Arc::from_center`] takes the arc for a circle: the round-off of a centre
+/// computed from an `R` word or of an end computed on the circle. The end is then within
+/// this share of the radius (or `SPIRAL_ROUNDOFF_ULPS`) of the given end point.
+pub const SPIRAL_ROUNDOFF_SHARE: f64 = 1e-12;
+
+/// The same round-off in units of `f64::EPSILON` of the largest coordinate of the start,
+/// end and centre: radii computed from coordinates of 1e5 mm carry 1e-11 mm of it.
+pub const SPIRAL_ROUNDOFF_ULPS: f64 = 1024.0;
+
+/// The plane geometry of an arc from its start, end, centre and axis (see
+/// [`Arc::from_center`]).
+struct Frame {
+    n: Vec3,
+    along: f64,
+    end_in_plane: Vec3,
+    /// Centre projected onto the plane of the start point.
+    center: Vec3,
+    chord: Vec3,
+    chord_len: f64,
+    r_start: f64,
+    r_end: f64,
+    /// The ends coincide in the plane but for rounding.
+    full_circle: bool,
+}
+
+impl Frame {
+    fn new(start: Vec3, end: Vec3, center: Vec3, axis: Vec3) -> Option<Frame> {
         let n = axis.normalized()?;
         let along = (end - start).dot(n);
         let end_in_plane = end - n * along;
-        // Centre projected onto the plane of the start point.
-        let mut c = center - n * (center - start).dot(n);
+        let center = center - n * (center - start).dot(n);
         let chord = end_in_plane - start;
         let chord_len = chord.norm();
-        let r_start = start.dist(c);
-        let r_end = end_in_plane.dist(c);
-        // A full circle (ends coincident but for rounding, see below) keeps its centre: the
-        // bisector of a rounding-sized chord points anywhere.
-        let full_circle = chord_len <= r_start * FULL_CIRCLE_CHORD_SHARE;
-        if !full_circle && r_start != r_end {
-            // Move the centre onto the bisector: c' = c - ((c - mid) . d) d, d = chord dir.
-            let d = chord / chord_len;
-            let mid = (start + end_in_plane) * 0.5;
-            c -= d * (c - mid).dot(d);
-        }
+        let r_start = start.dist(center);
+        let r_end = end_in_plane.dist(center);
+        Some(Frame {
+            n,
+            along,
+            end_in_plane,
+            center,
+            chord,
+            chord_len,
+            r_start,
+            r_end,
+            full_circle: chord_len <= r_start * FULL_CIRCLE_CHORD_SHARE,
+        })
+    }
+
+    /// The arc about `c` (in the start's plane) with the radius changing by `spiral`.
+    fn arc(&self, start: Vec3, c: Vec3, ccw: bool, turns: u32, spiral: f64) -> Option<Arc> {
         let radius = start.dist(c);
-        if radius <= 0.0 || !radius.is_finite() || !along.is_finite() {
+        if radius <= 0.0 || !radius.is_finite() || !self.along.is_finite() {
             return None;
         }
         let u = (start - c) / radius;
         let s = if ccw { 1.0 } else { -1.0 };
-        let axis_dir = n * s; // rotation is positive about axis_dir
+        let axis_dir = self.n * s; // rotation is positive about axis_dir
         let v = axis_dir.cross(u);
-        let e = end_in_plane - c;
+        let e = self.end_in_plane - c;
         let mut ang = e.dot(v).atan2(e.dot(u));
         if ang <= 0.0 {
             ang += TAU;
         }
         // Coincident in-plane ends: a full circle rather than a zero sweep.
-        if full_circle {
+        if self.full_circle {
             ang = TAU;
         }
         let sweep = ang + TAU * turns as f64;
@@ -94,8 +119,92 @@ impl Arc {
             u,
             v,
             sweep,
-            axial: n * along,
+            axial: self.n * self.along,
+            spiral,
         })
+    }
+}
+
+/// Chord, as a share of the radius, from which a circle of round-off radii turning more
+/// than a half turn has its centre moved onto the chord's bisector so that it ends exactly
+/// at its end point (the move is at most the round-off over this share); one turning less
+/// always has.
+const ROUNDOFF_BISECTOR_CHORD_SHARE: f64 = 1e-3;
+
+impl Arc {
+    /// Circular arc from `start` to `end` about the axis `axis` (unit normal of the arc
+    /// plane) through `center`. `ccw` means a positive (right-handed) rotation about
+    /// `axis`. `turns` adds full extra turns (G-code `P` word minus one). When `start` and
+    /// `end` coincide in the plane the arc is a full circle.
+    ///
+    /// The component of `end - start` along `axis` becomes the helical displacement.
+    /// When the start and end radii differ (the round-off of a constructed centre), the
+    /// centre is moved to the point of the perpendicular bisector of the in-plane chord
+    /// nearest the given centre, so that the arc ends exactly at `end`. A programmed arc
+    /// is [`Arc::from_center_spiral`]: LinuxCNC keeps its centre. Returns `None` for a zero
+    /// radius or non-finite input.
+    pub fn from_center(
+        start: Vec3,
+        end: Vec3,
+        center: Vec3,
+        axis: Vec3,
+        ccw: bool,
+        turns: u32,
+    ) -> Option<Arc> {
+        let f = Frame::new(start, end, center, axis)?;
+        let mut c = f.center;
+        if !f.full_circle && f.r_start != f.r_end {
+            // Move the centre onto the bisector: c' = c - ((c - mid) . d) d, d = chord dir.
+            let d = f.chord / f.chord_len;
+            let mid = (start + f.end_in_plane) * 0.5;
+            c -= d * (c - mid).dot(d);
+        }
+        f.arc(start, c, ccw, turns, 0.0)
+    }
+
+    /// The arc LinuxCNC runs for a centre-format `G2`/`G3` (posemath's `pmCircleInit`):
+    /// about `center` as given, from the direction of `start` to that of `end`, the radius
+    /// linear in the angle from the start's to the end's, so that the arc ends exactly at
+    /// `end` (a spiral, [`Arc::spiral`], when the radii differ; callers that must reject
+    /// inconsistent arcs check the radii before). Radii equal within round-off
+    /// (`SPIRAL_ROUNDOFF_SHARE` of the radius, `SPIRAL_ROUNDOFF_ULPS` of the coordinates)
+    /// give a circle, as [`Arc::from_center`] makes it, but for one turning more than a
+    /// half turn over a chord under a thousandth of its radius (a near-full circle, which
+    /// moving the centre along the chord would shift), whose centre is kept. Otherwise as
+    /// [`Arc::from_center`].
+    pub fn from_center_spiral(
+        start: Vec3,
+        end: Vec3,
+        center: Vec3,
+        axis: Vec3,
+        ccw: bool,
+        turns: u32,
+    ) -> Option<Arc> {
+        let f = Frame::new(start, end, center, axis)?;
+        let magnitude = [start, f.end_in_plane, f.center]
+            .iter()
+            .map(|p| p.x.abs().max(p.y.abs()).max(p.z.abs()))
+            .fold(f.r_start, f64::max);
+        let roundoff = (f.r_end - f.r_start).abs()
+            <= (f.r_start * SPIRAL_ROUNDOFF_SHARE)
+                .max(magnitude * SPIRAL_ROUNDOFF_ULPS * f64::EPSILON);
+        if f.full_circle || !roundoff {
+            let spiral = if f.full_circle {
+                0.0
+            } else {
+                f.r_end - f.r_start
+            };
+            return f.arc(start, f.center, ccw, turns, spiral);
+        }
+        // Less than a half turn: moving the centre along the chord barely moves the arc.
+        let sense = if ccw { 1.0 } else { -1.0 };
+        let c = f.center;
+        let short = turns == 0 && (start - c).cross(f.end_in_plane - c).dot(f.n) * sense > 0.0;
+        if short || f.chord_len >= f.r_start * ROUNDOFF_BISECTOR_CHORD_SHARE {
+            Arc::from_center(start, end, center, axis, ccw, turns)
+        } else {
+            f.arc(start, c, ccw, turns, 0.0)
+        }
     }
 
     /// Arc through `start` tangent to the unit direction `tangent` there, ending at `end`
@@ -118,6 +227,7 @@ impl Arc {
         let arc = Arc::from_center(start, end, center, n, true, 0)?;
         Some(Arc {
             axial: Vec3::ZERO,
+            spiral: 0.0,
             ..arc
         })
     }
@@ -128,15 +238,79 @@ impl Arc {
         self.u.cross(self.v)
     }
 
-    /// Exact length `sqrt((r phi)^2 + |h|^2)`.
+    /// Exact length: `sqrt((r phi)^2 + |h|^2)` for a circle, the closed form of
+    /// [`Arc::length_between`] for a spiral.
     #[inline]
     pub fn length(&self) -> f64 {
-        (self.radius * self.sweep).hypot(self.axial.norm())
+        if self.spiral == 0.0 {
+            (self.radius * self.sweep).hypot(self.axial.norm())
+        } else {
+            self.length_between(0.0, 1.0)
+        }
+    }
+
+    /// Exact length between parameters `t0 <= t1`. The speed is
+    /// `sqrt(K^2 + x^2)` with `K^2 = s^2 + |h|^2` and `x = phi (r + s t)` linear in `t`,
+    /// whose integral `(x q + K^2 asinh(x / K)) / 2` (`q = sqrt(K^2 + x^2)`) is evaluated
+    /// in a form free of cancellation between the ends (both differences divided through
+    /// by `x1 - x0 = phi s (t1 - t0)`), so that it holds from `s = 0` (where it is the
+    /// circle's `q`) to spirals of any pitch.
+    pub fn length_between(&self, t0: f64, t1: f64) -> f64 {
+        if t1 <= t0 {
+            return 0.0;
+        }
+        if self.spiral == 0.0 {
+            return (self.radius * self.sweep).hypot(self.axial.norm()) * (t1 - t0);
+        }
+        let k2 = self.spiral * self.spiral + self.axial.norm_sq();
+        let x0 = self.sweep * (self.radius + self.spiral * t0);
+        let x1 = self.sweep * (self.radius + self.spiral * t1);
+        let (q0, q1) = ((k2 + x0 * x0).sqrt(), (k2 + x1 * x1).sqrt());
+        let sum = x0 + x1;
+        // (x1 q1 - x0 q0) / (x1 - x0)
+        let first = sum * (k2 + x0 * x0 + x1 * x1) / (x1 * q1 + x0 * q0);
+        // (asinh(x1 / K) - asinh(x0 / K)) / (x1 - x0) = asinh(y) / (x1 - x0), with
+        // y = (x1 - x0) w.
+        let w = sum / (x1 * q0 + x0 * q1);
+        let y = (x1 - x0) * w;
+        let second = if y == 0.0 { w } else { w * (y.asinh() / y) };
+        0.5 * (first + k2 * second) * (t1 - t0)
+    }
+
+    /// Largest parametric speed `|C'(t)|` (mm per unit of `t`): the length of a circle,
+    /// a spiral's speed at its larger radius.
+    pub fn max_speed(&self) -> f64 {
+        if self.spiral == 0.0 {
+            return self.length();
+        }
+        let r_max = self.radius.max(self.radius_at(1.0));
+        let k2 = self.spiral * self.spiral + self.axial.norm_sq();
+        (k2 + (self.sweep * r_max).powi(2)).sqrt()
+    }
+
+    /// Parameter at the share `f` of the length (clamped to `[0, 1]`): `f` itself on a
+    /// circle, [`ParamCurveArclen::inv_arclen`] on a spiral.
+    pub fn param_at_share(&self, f: f64) -> f64 {
+        if self.spiral == 0.0 || f <= 0.0 || f >= 1.0 {
+            return f.clamp(0.0, 1.0);
+        }
+        self.inv_arclen(f * self.length(), 0.0)
     }
 
     /// True when the arc has a helical displacement.
     pub fn is_helical(&self) -> bool {
         self.axial.norm_sq() > 0.0
+    }
+
+    /// True when the radius changes along the arc (LinuxCNC's spiral).
+    pub fn is_spiral(&self) -> bool {
+        self.spiral != 0.0
+    }
+
+    /// Radius at parameter `t`: `radius + spiral t`.
+    #[inline]
+    pub fn radius_at(&self, t: f64) -> f64 {
+        self.radius + self.spiral * t
     }
 
     /// The part of the arc between parameters `t0 < t1` (exact).
@@ -147,11 +321,12 @@ impl Arc {
         let v = self.v * c - self.u * s;
         Arc {
             center: self.center + self.axial * t0,
-            radius: self.radius,
+            radius: self.radius_at(t0),
             u,
             v,
             sweep: self.sweep * (t1 - t0),
             axial: self.axial * (t1 - t0),
+            spiral: self.spiral * (t1 - t0),
         }
     }
 
@@ -160,11 +335,12 @@ impl Arc {
         let e = self.subsegment(1.0, 1.0);
         Arc {
             center: e.center,
-            radius: self.radius,
+            radius: self.radius_at(1.0),
             u: e.u,
             v: -e.v,
             sweep: self.sweep,
             axial: -self.axial,
+            spiral: -self.spiral,
         }
     }
 
@@ -178,11 +354,21 @@ impl Arc {
         self.deriv(1.0).normalized().unwrap_or(self.v)
     }
 
-    /// Number of chords whose sagitta is at most `accuracy` for this sweep.
-    fn chord_count(&self, accuracy: f64) -> usize {
-        let ratio = (1.0 - accuracy / self.radius).max(-1.0);
-        let max_step = 2.0 * ratio.acos();
-        let n = (self.sweep / max_step).ceil();
+    /// Number of chords (uniform in `t`) whose distance from the arc is at most
+    /// `accuracy`. A circle's chord has the sagitta `r (1 - cos(dphi / 2))`. A spiral's
+    /// chord over `dt` lies within `max |C''_plane| dt^2 / 8` of it (the helical part is
+    /// linear in `t` and interpolated exactly), with
+    /// `|C''_plane| <= 2 |s| phi + r_max phi^2`.
+    pub(crate) fn chord_count(&self, accuracy: f64) -> usize {
+        let n = if self.spiral == 0.0 {
+            let ratio = (1.0 - accuracy / self.radius).max(-1.0);
+            let max_step = 2.0 * ratio.acos();
+            (self.sweep / max_step).ceil()
+        } else {
+            let r_max = self.radius.max(self.radius_at(1.0));
+            let d2 = 2.0 * self.spiral.abs() * self.sweep + r_max * self.sweep * self.sweep;
+            (d2 / (8.0 * accuracy)).sqrt().ceil()
+        };
         if n.is_finite() {
             (n as usize).max(1)
         } else {
@@ -197,6 +383,15 @@ impl Arc {
     /// first even on a helix, so the curvature vector is `C'' / |C'|^2`.
     #[inline]
     pub fn frame(&self, t: f64) -> (Vec3, Vec3, Vec3) {
+        if self.spiral != 0.0 {
+            let d1 = self.deriv(t);
+            let tangent = d1.normalized().unwrap_or(self.v);
+            return (
+                self.eval(t),
+                tangent,
+                curvature_vec_from(d1, self.deriv2(t)),
+            );
+        }
         let (s, c) = (self.sweep * t).sin_cos();
         let radial = self.u * c + self.v * s;
         let p = self.center + radial * self.radius + self.axial * t;
@@ -211,7 +406,11 @@ impl ParamCurve for Arc {
     #[inline]
     fn eval(&self, t: f64) -> Vec3 {
         let (s, c) = (self.sweep * t).sin_cos();
-        self.center + (self.u * c + self.v * s) * self.radius + self.axial * t
+        if self.spiral == 0.0 {
+            self.center + (self.u * c + self.v * s) * self.radius + self.axial * t
+        } else {
+            self.center + (self.u * c + self.v * s) * self.radius_at(t) + self.axial * t
+        }
     }
 }
 
@@ -219,32 +418,125 @@ impl ParamCurveDeriv for Arc {
     #[inline]
     fn deriv(&self, t: f64) -> Vec3 {
         let (s, c) = (self.sweep * t).sin_cos();
-        (self.v * c - self.u * s) * (self.radius * self.sweep) + self.axial
+        let tangential = (self.v * c - self.u * s) * (self.radius_at(t) * self.sweep);
+        if self.spiral == 0.0 {
+            tangential + self.axial
+        } else {
+            tangential + (self.u * c + self.v * s) * self.spiral + self.axial
+        }
     }
     #[inline]
     fn deriv2(&self, t: f64) -> Vec3 {
         let (s, c) = (self.sweep * t).sin_cos();
-        (self.u * c + self.v * s) * (-self.radius * self.sweep * self.sweep)
+        let radial = (self.u * c + self.v * s) * (-self.radius_at(t) * self.sweep * self.sweep);
+        if self.spiral == 0.0 {
+            radial
+        } else {
+            radial + (self.v * c - self.u * s) * (2.0 * self.spiral * self.sweep)
+        }
     }
 }
+
+/// Relative accuracy of the length at the parameter [`Arc`]'s `inv_arclen` returns on a
+/// spiral (the length itself is closed form).
+const SPIRAL_INV_ARCLEN_SHARE: f64 = 1e-12;
 
 impl ParamCurveArclen for Arc {
     /// Exact; `accuracy` is ignored.
     fn arclen(&self, _accuracy: f64) -> f64 {
         self.length()
     }
-    /// Exact (the speed is constant); `accuracy` is ignored.
-    fn inv_arclen(&self, s: f64, _accuracy: f64) -> f64 {
-        (s / self.length()).clamp(0.0, 1.0)
+    /// Exact on a circle (the speed is constant); on a spiral Newton's steps on the
+    /// closed-form length, to `SPIRAL_INV_ARCLEN_SHARE` of the length or `accuracy`,
+    /// whichever is smaller (the speed changes by at most the ratio of the radii, so a
+    /// few steps from `s / L` suffice).
+    fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {
+        let total = self.length();
+        let t = (s / total).clamp(0.0, 1.0);
+        if self.spiral == 0.0 || !(t > 0.0 && t < 1.0) {
+            return t;
+        }
+        let acc = (total * SPIRAL_INV_ARCLEN_SHARE).min(accuracy.max(f64::MIN_POSITIVE));
+        let (mut lo, mut hi, mut t) = (0.0_f64, 1.0_f64, t);
+        for _ in 0..64 {
+            let err = self.length_between(0.0, t) - s;
+            if err.abs() <= acc {
+                break;
+            }
+            if err > 0.0 {
+                hi = t;
+            } else {
+                lo = t;
+            }
+            let next = t - err / self.deriv(t).norm();
+            t = if next > lo && next < hi {
+                next
+            } else {
+                0.5 * (lo + hi)
+            };
+        }
+        t
     }
 }
 
+impl Arc {
+    /// Nearest point of a planar spiral: the generic search ([`nearest_generic`]: samples
+    /// and the ends, refined), and at each angle of `p`'s direction in the sweep (one per
+    /// turn, where samples of a many-turn spiral are sparse) the crossing of the ray from
+    /// the centre through `p`, refined by Newton's steps on `(C(t) - p) . C'(t) = 0`
+    /// within the turn around it; the nearest of all.
+    fn nearest_spiral(&self, p: Vec3, accuracy: f64) -> Nearest {
+        let mut best = nearest_generic(self, p, accuracy);
+        let q = p - self.center;
+        let (x, y) = (q.dot(self.u), q.dot(self.v));
+        let mut ang = y.atan2(x);
+        if ang < 0.0 {
+            ang += TAU;
+        }
+        let half_turn = PI / self.sweep;
+        while ang <= self.sweep {
+            let t0 = ang / self.sweep;
+            let (lo, hi) = ((t0 - half_turn).max(0.0), (t0 + half_turn).min(1.0));
+            let t = newton_nearest(self, p, t0, lo, hi);
+            let d = self.eval(t).dist_sq(p);
+            if d < best.distance_sq {
+                best = Nearest { t, distance_sq: d };
+            }
+            ang += TAU;
+        }
+        best
+    }
+}
+
+/// Newton's steps on `g(t) = (C(t) - p) . C'(t) = 0` from `t` kept in `[lo, hi]`.
+fn newton_nearest(a: &Arc, p: Vec3, mut t: f64, lo: f64, hi: f64) -> f64 {
+    for _ in 0..16 {
+        let d = a.eval(t) - p;
+        let d1 = a.deriv(t);
+        let g = d.dot(d1);
+        let h = d1.norm_sq() + d.dot(a.deriv2(t));
+        if h <= 0.0 {
+            break;
+        }
+        let next = (t - g / h).clamp(lo, hi);
+        if (next - t).abs() <= 1e-15 {
+            return next;
+        }
+        t = next;
+    }
+    t
+}
+
 impl ParamCurveNearest for Arc {
-    /// Exact for planar arcs (angle of the projected point, else the nearer end); helical
-    /// arcs use [`nearest_generic`].
+    /// Exact for planar circular arcs (angle of the projected point, else the nearer
+    /// end); planar spirals refine the crossings of the ray through the point
+    /// (`nearest_spiral`); helical arcs use [`nearest_generic`].
     fn nearest(&self, p: Vec3, accuracy: f64) -> Nearest {
         if self.is_helical() {
             return nearest_generic(self, p, accuracy);
+        }
+        if self.is_spiral() {
+            return self.nearest_spiral(p, accuracy);
         }
         let q = p - self.center;
         let (x, y) = (q.dot(self.u), q.dot(self.v));
@@ -279,9 +571,21 @@ impl ParamCurveNearest for Arc {
 impl ParamCurveCurvature for Arc {}
 
 impl ParamCurveBBox for Arc {
-    /// Tight for planar arcs (end points plus the axis extremes inside the sweep); for
+    /// Tight for planar circular arcs (end points plus the axis extremes inside the
+    /// sweep); for a spiral the union of the boxes of the circular arcs at its start and
+    /// end radii (a point at angle `theta` lies between those arcs' points there); for
     /// helical arcs the planar box swept along the helical displacement.
     fn bounding_box(&self) -> Aabb {
+        if self.spiral != 0.0 {
+            let circle = |radius: f64| Arc {
+                radius,
+                spiral: 0.0,
+                ..*self
+            };
+            return circle(self.radius)
+                .bounding_box()
+                .union(circle(self.radius_at(1.0)).bounding_box());
+        }
         let planar = Arc {
             axial: Vec3::ZERO,
             ..*self
@@ -314,7 +618,8 @@ impl ParamCurveBBox for Arc {
 
 impl Flatten for Arc {
     /// Uniform chords in `t`. The helical part is linear in `t`, so it is interpolated
-    /// exactly and the deviation is the planar sagitta `r (1 - cos(dphi / 2))`, which the
+    /// exactly and the deviation is the planar one: the sagitta `r (1 - cos(dphi / 2))`
+    /// of a circle, the second-derivative bound of a spiral (`chord_count`), which the
     /// chord count keeps at most `accuracy`.
     fn flatten<F: FnMut(Vec3)>(&self, accuracy: f64, sink: &mut F) {
         let n = self.chord_count(accuracy);
@@ -328,6 +633,7 @@ impl Flatten for Arc {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::Line;
     use approx::assert_abs_diff_eq;
 
     fn quarter() -> Arc {
@@ -514,6 +820,153 @@ mod tests {
                 a.end().dist(e) < 1e-9 && a.start_tangent().dist(t) < 1e-9,
                 "{k}"
             );
+        }
+    }
+
+    /// The near-full circle of a program whose end is 2 um inside the start's circle
+    /// (`G3 X0.02 Y0.6 I10 J0` from the origin): LinuxCNC's spiral about the programmed
+    /// centre, not a circle about a moved one.
+    fn spiral() -> Arc {
+        Arc::from_center_spiral(
+            Vec3::ZERO,
+            Vec3::new(0.02, 0.6, 0.0),
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::Z,
+            true,
+            0,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_centre_format_arc_off_its_circle_is_linuxcncs_spiral() {
+        let a = spiral();
+        let r_end = Vec3::new(0.02 - 10.0, 0.6, 0.0).norm();
+        assert_eq!(a.center, Vec3::new(10.0, 0.0, 0.0));
+        assert_abs_diff_eq!(a.radius, 10.0, epsilon = 1e-15);
+        assert_abs_diff_eq!(a.spiral, r_end - 10.0, epsilon = 1e-15);
+        assert!(a.is_spiral());
+        assert!(a.eval(1.0).dist(Vec3::new(0.02, 0.6, 0.0)) < 1e-12);
+        // Radius linear in the angle (pmCirclePoint): at half the sweep, the mean radius.
+        assert_abs_diff_eq!(
+            a.eval(0.5).dist(a.center),
+            10.0 + 0.5 * a.spiral,
+            epsilon = 1e-12
+        );
+        // The circle the bisector gave was up to 0.033 mm off it; the spiral's points
+        // are all within |spiral| of the start's circle.
+        for i in 0..=100 {
+            let d = a.eval(i as f64 / 100.0).dist(a.center) - 10.0;
+            assert!(d.abs() <= a.spiral.abs() + 1e-12);
+        }
+        // Round-off radii stay a circle that ends at its end point.
+        let c = Arc::from_center_spiral(
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(0.0, 10.0 * (1.0 + 1e-14), 0.0),
+            Vec3::ZERO,
+            Vec3::Z,
+            true,
+            0,
+        )
+        .unwrap();
+        assert!(!c.is_spiral() && c.eval(1.0).dist(Vec3::new(0.0, 10.0, 0.0)) < 1e-12);
+    }
+
+    /// Spirals of every kind: the near-full one, a helical multi-turn spiral whose radius
+    /// triples, and a shrinking one in another plane.
+    fn spirals() -> Vec<Arc> {
+        vec![
+            spiral(),
+            Arc::from_center_spiral(
+                Vec3::new(0.01, 0.0, 0.0),
+                Vec3::new(0.0, 0.03, 2.0),
+                Vec3::ZERO,
+                Vec3::Z,
+                false,
+                2,
+            )
+            .unwrap(),
+            Arc::from_center_spiral(
+                Vec3::new(0.0, 0.0, 5.0),
+                Vec3::new(4.9, 0.0, 0.0),
+                Vec3::ZERO,
+                Vec3::Y,
+                true,
+                0,
+            )
+            .unwrap(),
+        ]
+    }
+
+    #[test]
+    fn spiral_length_derivatives_and_inverse_are_exact() {
+        for a in spirals() {
+            let numeric = arclen_adaptive(&a, 0.0, 1.0, 1e-12);
+            assert!(
+                (a.length() - numeric).abs() <= 1e-9 * numeric,
+                "{} {numeric}",
+                a.length()
+            );
+            let part = arclen_adaptive(&a, 0.2, 0.7, 1e-12);
+            assert!((a.length_between(0.2, 0.7) - part).abs() <= 1e-9 * part);
+            assert!(a.max_speed() >= a.deriv(0.0).norm() && a.max_speed() >= a.deriv(1.0).norm());
+            let h = 1e-6;
+            for &t in &[0.1, 0.5, 0.9] {
+                let fd = (a.eval(t + h) - a.eval(t - h)) / (2.0 * h);
+                assert!((fd - a.deriv(t)).norm() <= 1e-6 * a.deriv(t).norm());
+                let fd2 = (a.deriv(t + h) - a.deriv(t - h)) / (2.0 * h);
+                assert!((fd2 - a.deriv2(t)).norm() <= 1e-5 * a.deriv2(t).norm());
+                let (p, tan, k) = a.frame(t);
+                assert!(p.dist(a.eval(t)) < 1e-12 && k.dist(a.curvature_vec(t)) < 1e-12);
+                assert!(tan.dist(a.deriv(t).normalized().unwrap()) < 1e-12);
+                let s = a.length() * t;
+                assert!((a.length_between(0.0, a.inv_arclen(s, 1e-9)) - s).abs() <= 1e-9);
+            }
+            let (sub, rev) = (a.subsegment(0.3, 0.8), a.reversed());
+            for i in 0..=10 {
+                let t = i as f64 / 10.0;
+                assert!(sub.eval(t).dist(a.eval(0.3 + 0.5 * t)) < 1e-12);
+                assert!(rev.eval(t).dist(a.eval(1.0 - t)) < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn spiral_nearest_box_and_flattening_hold_their_bounds() {
+        for a in spirals() {
+            let n = 20_000;
+            let dense: Vec<Vec3> = (0..=n).map(|i| a.eval(i as f64 / n as f64)).collect();
+            let b = a.bounding_box();
+            assert!(dense.iter().all(|p| b.dist_sq(*p) <= 1e-24));
+            let acc = 1e-3;
+            let mut pts = vec![a.start()];
+            a.flatten(acc, &mut |p| pts.push(p));
+            assert_eq!(*pts.last().unwrap(), a.eval(1.0));
+            let lines: Vec<Line> = pts.windows(2).map(|w| Line::new(w[0], w[1])).collect();
+            for p in dense.iter().step_by(7) {
+                let d = lines
+                    .iter()
+                    .map(|l| l.dist_sq(*p))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(d.sqrt() <= acc * (1.0 + 1e-9), "{}", d.sqrt());
+            }
+            if !a.is_helical() {
+                for q in [
+                    Vec3::new(3.0, 1.0, 0.5),
+                    Vec3::new(-20.0, 4.0, 1.0),
+                    a.center,
+                ] {
+                    let near = a.nearest(q, 0.0).distance_sq.sqrt();
+                    let brute = dense
+                        .iter()
+                        .map(|p| p.dist(q))
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(
+                        near <= brute + 1e-9 && near >= brute - 2e-3,
+                        "{near} {brute}"
+                    );
+                }
+            }
         }
     }
 }

@@ -1,5 +1,5 @@
 //! The arc length of one interpolation step (or one planning interval) of a move: exact
-//! on lines and arcs, 7-point Gauss-Kronrod with an adaptive fallback on curves, split at
+//! on lines and arcs (spirals included), 7-point Gauss-Kronrod with an adaptive fallback on curves, split at
 //! the knots of a NURBS. Shared by the planner's grid ([`crate::feed`]) and the
 //! interpolator ([`crate::interp`]), which sit above this module.
 
@@ -14,9 +14,12 @@ pub const STEP_ARCLEN_ACCURACY_MM: f64 = 1e-11;
 /// end). Seven evaluations of `P'` on almost every step, where the former check (5-point
 /// Gauss-Legendre against its two halves) took fifteen on all.
 pub fn step_arclen(seg: &Segment, a: f64, b: f64) -> f64 {
-    // Lines and arcs (helices included) have constant parametric speed: exact.
-    if let Segment::Line(_) | Segment::Arc(_) = seg {
-        return ParamCurveArclen::arclen(seg, 0.0) * (b - a);
+    // Lines and arcs (helices included) have constant parametric speed: exact. A spiral's
+    // length has a closed form.
+    match seg {
+        Segment::Arc(arc) if arc.is_spiral() => return arc.length_between(a, b),
+        Segment::Line(_) | Segment::Arc(_) => return ParamCurveArclen::arclen(seg, 0.0) * (b - a),
+        _ => {}
     }
     match seg {
         // The spline's weights once, not at every node.

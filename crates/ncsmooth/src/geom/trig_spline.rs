@@ -255,10 +255,10 @@ impl TrigSpline {
     }
 
     /// The exact arc `arc` as trigonometric splines: windows of quarter circles, one per
-    /// started 90 degrees of sweep. `None` for helical arcs (a linear axial motion is not in
-    /// the span of the basis).
+    /// started 90 degrees of sweep. `None` for helical and spiral arcs (a linear axial
+    /// motion, or a radius linear in the angle, is not in the span of the basis).
     pub fn arc(arc: &Arc) -> Option<Vec<TrigSpline>> {
-        if arc.is_helical() || !(arc.sweep > 0.0 && arc.sweep.is_finite()) {
+        if arc.is_helical() || arc.is_spiral() || !(arc.sweep > 0.0 && arc.sweep.is_finite()) {
             return None;
         }
         let n = (arc.sweep / FRAC_PI_2 - 1e-12).ceil().max(1.0) as usize;

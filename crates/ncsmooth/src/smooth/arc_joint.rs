@@ -108,7 +108,7 @@ fn piece(seg: &Segment, f0: f64, f1: f64) -> Segment {
             Segment::Line(Line::new(p0, p1))
         }
         Segment::Arc(a) if f0 <= 0.0 && f1 >= 1.0 => Segment::Arc(*a),
-        Segment::Arc(a) => Segment::Arc(a.subsegment(f0, f1)),
+        Segment::Arc(a) => Segment::Arc(a.subsegment(a.param_at_share(f0), a.param_at_share(f1))),
         other => other.clone(),
     }
 }
@@ -226,8 +226,8 @@ pub fn blend_arc_joints(
         } else {
             let len = lens[i].expect("blended moves are lines or arcs");
             let (f0, f1) = (trim0 / len, 1.0 - trim1 / len);
-            // A trimmed arc in pieces of at most a half turn (see the module doc); the
-            // parameter of an arc or helix is proportional to its arc length.
+            // A trimmed arc in pieces of at most a half turn (see the module doc); `piece`
+            // takes shares of the length (a spiral's parameter is not proportional to it).
             let parts = match seg {
                 Segment::Arc(a) => {
                     ((a.sweep * (f1 - f0) / MAX_TRIMMED_ARC_SWEEP_RAD).ceil() as usize).max(1)

@@ -257,18 +257,37 @@ impl Prim {
     }
 }
 
-/// Appends the primitives of `seg` to `out`. Lines and planar arcs are exact; helical arcs
-/// and curves are flattened with chord error at most `flatten_mm`.
+/// Appends the primitives of `seg` to `out`. Lines and planar circular arcs are exact. A
+/// planar spiral is cut into `k` equal pieces, each its circle of the mean radius (every
+/// point of a piece and of its circle is within `|spiral| / 2k` of the other), with the
+/// least `k` that keeps that within `flatten_mm`, unless flattening takes fewer
+/// primitives. Helical arcs and curves are flattened with chord error at most
+/// `flatten_mm`.
 pub(crate) fn push_prims(seg: &Segment, source: u32, flatten_mm: f64, out: &mut Vec<Prim>) {
     match seg {
         Segment::Line(l) => out.push(Prim {
             geom: PrimGeom::Line(*l),
             source,
         }),
-        Segment::Arc(a) if !a.is_helical() => out.push(Prim {
-            geom: PrimGeom::Arc(PlanarArc::new(a)),
-            source,
-        }),
+        Segment::Arc(a) if !a.is_helical() && spiral_pieces(a, flatten_mm).is_some() => {
+            let k = spiral_pieces(a, flatten_mm).unwrap_or(1);
+            for j in 0..k {
+                let piece = if k == 1 {
+                    *a
+                } else {
+                    a.subsegment(j as f64 / k as f64, (j + 1) as f64 / k as f64)
+                };
+                let circle = Arc {
+                    radius: piece.radius_at(0.5),
+                    spiral: 0.0,
+                    ..piece
+                };
+                out.push(Prim {
+                    geom: PrimGeom::Arc(PlanarArc::new(&circle)),
+                    source,
+                });
+            }
+        }
         other => {
             let mut prev = other.start();
             other.flatten(flatten_mm, &mut |p| {
@@ -280,6 +299,17 @@ pub(crate) fn push_prims(seg: &Segment, source: u32, flatten_mm: f64, out: &mut 
             });
         }
     }
+}
+
+/// Pieces a planar arc is measured in as circles ([`push_prims`]): one for a circle, the
+/// least count keeping a spiral's pieces within `flatten_mm` of their circles; `None`
+/// where flattening the spiral takes fewer primitives.
+fn spiral_pieces(a: &Arc, flatten_mm: f64) -> Option<usize> {
+    if a.spiral == 0.0 {
+        return Some(1);
+    }
+    let k = (0.5 * a.spiral.abs() / flatten_mm).ceil();
+    (k.is_finite() && k <= a.chord_count(flatten_mm) as f64).then_some((k as usize).max(1))
 }
 
 #[cfg(test)]
