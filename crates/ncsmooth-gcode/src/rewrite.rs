@@ -707,7 +707,9 @@ pub fn rewrite(
         let o = &orig[orig_by[i].0..orig_by[i].1];
         let w = &out[out_by[i].0..out_by[i].1];
         changed[i] = !same_moves(o, w)
-            || (opts.rewrite_unchanged && info.has(flags::REPLACEABLE) && !w.is_empty());
+            || (opts.rewrite_unchanged
+                && info.has(flags::REPLACEABLE)
+                && w.iter().any(|m| !m.is_rapid()));
         if changed[i] && !info.has(flags::REPLACEABLE) {
             return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
         }
@@ -751,6 +753,13 @@ pub fn rewrite(
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
+        // Move by move, a run is written line by line, the last line when the run ends.
+        if let Some(r) = region
+            .as_mut()
+            .filter(|r| changed[i] && r.w.frame.chain.is_none())
+        {
+            r.flush(&mut s, &orig, &untracked_before)?;
+        }
         if let (Some(b), Some(true)) = (verbatim_at(i), first_motion.map(|f| f == i)) {
             push_blend_line(&mut s, b, info.before.units, opts.decimals, eol);
         }
@@ -765,13 +774,12 @@ pub fn rewrite(
                 Region::open(&mut s, eol, info, first, (extra_mask, extra, carry), opts)
             });
             r.pending.extend_from_slice(w);
-            r.add_program(orig_by[i]);
-            if r.w.frame.chain.is_none() {
-                r.flush(&mut s, &orig, &untracked_before)?;
-            }
+            r.add_program(orig_by[i], &orig);
             r.end_state = info.state;
         } else {
             if let Some(mut r) = region.take() {
+                // The verbatim lines continue from the programmed point, to the digit.
+                r.w.exact_end = r.program_end;
                 r.flush(&mut s, &orig, &untracked_before)?;
                 e_carry = (r.w.relative_e_carry(), resets_before[i]);
                 let after = verbatim_at(i);
@@ -959,6 +967,8 @@ struct Region<'a> {
     /// the program's moves).
     floor: Option<BlockFloor>,
     program: Option<(usize, usize)>,
+    /// Where the last programmed move of the run ends.
+    program_end: Option<Vec3>,
 }
 
 /// Programmed moves on each side of a replaced run that its written blocks are also
@@ -1016,8 +1026,9 @@ fn unit_mm(units: Units) -> f64 {
 
 impl<'a> Region<'a> {
     /// Adds the programmed moves `range` of a replaced line to the run's.
-    fn add_program(&mut self, range: (usize, usize)) {
+    fn add_program(&mut self, range: (usize, usize), orig: &[&Move]) {
         if range.1 > range.0 {
+            self.program_end = Some(orig[range.1 - 1].segment.end());
             self.program = Some(match self.program {
                 Some((lo, _)) => (lo, range.1),
                 None => range,
@@ -1219,6 +1230,7 @@ impl<'a> Region<'a> {
             blend: opts.blend,
             floor: opts.block_floor.filter(|_| frame_chains_lines(opts.emit)),
             program: None,
+            program_end: None,
         }
     }
 

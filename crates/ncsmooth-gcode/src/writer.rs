@@ -1164,7 +1164,18 @@ pub(crate) struct MotionWriter {
     chain_ends: RunEnds,
     /// The extra axes along the chain being written, when its moves carry them.
     chain_extra: Option<ExtraProfile>,
+    /// The programmed point a verbatim line continues from after these moves (mm): a
+    /// block ending there (within [`EXACT_END_SNAP_MM`]) writes it with the digits that
+    /// read back as exactly that point ([`MotionWriter::fmt_exact`]), so that a rapid, a
+    /// full circle or an incremental move after it starts where the program has it.
+    pub exact_end: Option<Vec3>,
+    /// [`MotionWriter::exact_end`] while the block that ends there is written.
+    exact_now: Option<Vec3>,
 }
+
+/// Distance (mm) within which a written block ends on the programmed point a run ends at
+/// (the writer then prints that point with its own digits).
+pub const EXACT_END_SNAP_MM: f64 = 1e-9;
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
@@ -1253,6 +1264,8 @@ impl MotionWriter {
             run_ends: RunEnds::default(),
             chain_ends: RunEnds::default(),
             chain_extra: None,
+            exact_end: None,
+            exact_now: None,
         };
         w.forget_axes();
         w
@@ -1379,6 +1392,31 @@ impl MotionWriter {
         push_fixed(&mut self.scratch, v, decimals.min(MAX_DECIMALS));
     }
 
+    /// Formats axis `i`'s value `v` (mm) with the fewest decimals, from the frame's on,
+    /// that read back as exactly `v` (a point of the program: its own digits), or with
+    /// [`MAX_DECIMALS`] when none does.
+    fn fmt_exact(&mut self, i: usize, v: f64) {
+        let u = self.mm_to_units(i, v);
+        for d in self.decimals()..=MAX_DECIMALS {
+            self.fmt_to(u, d);
+            if self
+                .scratch
+                .parse::<f64>()
+                .is_ok_and(|b| self.units_to_mm(i, b) == v)
+            {
+                return;
+            }
+        }
+    }
+
+    /// [`MotionWriter::exact_end`] when a block to `p` ends there (`p` the point itself or
+    /// its rounding to the written decimals, as the long-lines emitter chooses its ends).
+    fn exact_at(&self, p: Vec3) -> Option<Vec3> {
+        self.exact_end.filter(|&e| {
+            e.dist(p) <= EXACT_END_SNAP_MM || self.rounded(e).dist(p) <= EXACT_END_SNAP_MM
+        })
+    }
+
     /// One unit of the last written digit, in mm.
     fn unit_mm(&self) -> f64 {
         0.1f64.powi(self.decimals() as i32) * self.frame.scale
@@ -1399,8 +1437,17 @@ impl MotionWriter {
     /// An axis that may not be written is never written: if its value would change, the
     /// violation is recorded.
     fn axis(&mut self, i: usize, v: f64, force: bool) -> bool {
-        let u = self.mm_to_units(i, v);
-        self.fmt(u);
+        let v = match self.exact_now.filter(|_| self.allowed(i)) {
+            Some(e) => {
+                self.fmt_exact(i, coord(e, i));
+                coord(e, i)
+            }
+            None => {
+                let u = self.mm_to_units(i, v);
+                self.fmt(u);
+                v
+            }
+        };
         if !self.allowed(i) {
             if self.axis_known[i] && self.scratch != self.last_axis[i] && self.violation.is_none() {
                 self.violation = Some((AXIS_LETTERS[i], v));
@@ -1508,9 +1555,11 @@ impl MotionWriter {
         let code = if m.kind == MoveKind::Rapid { 0 } else { 1 };
         let _ = write!(self.line, "G{code}");
         let bare = self.line.len();
+        self.exact_now = self.exact_at(p);
         for i in 0..3 {
             self.axis(i, coord(p, i), false);
         }
+        self.exact_now = None;
         self.extras(extra);
         if self.line.len() == bare {
             return Ok(());
@@ -2167,6 +2216,7 @@ impl MotionWriter {
             self.frame.plane = plane;
         }
         self.line.push_str(if ccw { "G3" } else { "G2" });
+        self.exact_now = if full { None } else { self.exact_at(end) };
         for i in 0..3 {
             if i == normal_axis && !self.allowed(i) {
                 continue;
@@ -2174,6 +2224,7 @@ impl MotionWriter {
             let force = i != normal_axis || !self.axis_known[i];
             self.axis(i, coord(end, i), force);
         }
+        self.exact_now = None;
         const CENTRE: [char; 3] = ['I', 'J', 'K'];
         for i in [0, 1, 2] {
             if i == normal_axis {
