@@ -364,8 +364,11 @@ fn region_sup(b: &BlendArc, prog: &mut PathIndex, mut best: f64, slack: f64) -> 
                         .fold(ub, f64::min)
                 }
             }
-            // Else 1-Lipschitz: half the slice along the arc, all of its fibres across.
-            None => f + 0.5 * (t1 - t0) * along + b.fibre_len_mm(t0).max(b.fibre_len_mm(t1)),
+            // A programmed arc: its chord across the slice's feet, plus the sagitta. Else
+            // 1-Lipschitz: half the slice along the arc, all of its fibres across.
+            None => prog.arc_hull_bound(&hull).unwrap_or_else(|| {
+                f + 0.5 * (t1 - t0) * along + b.fibre_len_mm(t0).max(b.fibre_len_mm(t1))
+            }),
         };
         Cell { ub, t: [t0, t1] }
     };
@@ -415,9 +418,14 @@ fn half_sup(
         let tm = 0.5 * (ta + tb);
         let (f, near) = prog.nearest_line(seg.eval(tm));
         best = best.max(f);
+        let lipschitz = f + 0.5 * len * (tb - ta);
         let ub = match near.filter(|_| straight) {
             Some(l) => l.dist_sq(seg.eval(ta)).max(l.dist_sq(seg.eval(tb))).sqrt(),
-            None => f + 0.5 * len * (tb - ta),
+            // A straight piece along a programmed arc: the arc's chord bound.
+            None if straight => prog
+                .arc_hull_bound(&[seg.eval(ta), seg.eval(tb)])
+                .unwrap_or(lipschitz),
+            None => lipschitz,
         };
         if ub <= best + slack {
             continue;

@@ -10,7 +10,7 @@
 
 use super::bvh::{Bvh, Hit};
 use super::prim::{push_prims, PrimGeom};
-use crate::geom::{Line, Segment, Vec3};
+use crate::geom::{Line, ParamCurve, Segment, Vec3};
 
 /// A path indexed for nearest-distance queries.
 ///
@@ -78,7 +78,56 @@ impl PathIndex {
         };
         (d, line)
     }
+
+    /// An upper bound on the distance to the path over the convex hull of `hull`, when the
+    /// primitive nearest the last query ([`PathIndex::nearest`]) is a planar arc: the
+    /// largest distance of a point of `hull` to the chord of the arc between its points'
+    /// feet (the distance to a line segment is convex, so over the hull it is largest at a
+    /// point of `hull`), plus the chord's sagitta (every point of the chord is within it
+    /// of the arc). It shrinks with the square of the hull's size, where a Lipschitz bound
+    /// shrinks with the size. `None` for another primitive, or when the feet span more than
+    /// `MAX_HULL_FOOT_SPAN_RAD` of the arc.
+    pub fn arc_hull_bound(&self, hull: &[Vec3]) -> Option<f64> {
+        let PrimGeom::Arc(a) = &self.bvh.prims.get(self.hint)?.geom else {
+            return None;
+        };
+        let arc = &a.arc;
+        let n = arc.normal();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &v in hull {
+            let q = v - arc.center;
+            let q = q - n * q.dot(n);
+            let mut th = q.dot(arc.v).atan2(q.dot(arc.u));
+            if th < 0.0 {
+                th += std::f64::consts::TAU;
+            }
+            if th > arc.sweep {
+                // Past the end: the nearer end (the way round that is shorter).
+                th = if th - arc.sweep < std::f64::consts::TAU - th {
+                    arc.sweep
+                } else {
+                    0.0
+                };
+            }
+            lo = lo.min(th);
+            hi = hi.max(th);
+        }
+        if hi - lo > MAX_HULL_FOOT_SPAN_RAD || hi.is_nan() || lo.is_nan() {
+            return None;
+        }
+        let chord = Line::new(arc.eval(lo / arc.sweep), arc.eval(hi / arc.sweep));
+        let sagitta = arc.radius * (1.0 - (0.5 * (hi - lo)).cos());
+        let far = hull
+            .iter()
+            .map(|&v| chord.dist_sq(v))
+            .fold(0.0, f64::max)
+            .sqrt();
+        Some(far + sagitta)
+    }
 }
+
+/// Largest angle (rad) of an arc that [`PathIndex::arc_hull_bound`] replaces by its chord.
+pub const MAX_HULL_FOOT_SPAN_RAD: f64 = std::f64::consts::FRAC_PI_2;
 
 #[cfg(test)]
 mod tests {
