@@ -86,7 +86,16 @@ impl Budget {
 /// The path of the written `text` (named `name` in errors) as the controller will read
 /// it. An error means the text does not read back (a writer bug, never the user's).
 pub fn read_written(text: &[u8], name: &str) -> Result<Toolpath, ParseError> {
-    Ok(parse_bytes(text, name, &Default::default())?.toolpath)
+    read_written_with(text, name, &Default::default())
+}
+
+/// [`read_written`] with the reader's options (the default units the program was read in).
+pub fn read_written_with(
+    text: &[u8],
+    name: &str,
+    opts: &crate::ParseOptions,
+) -> Result<Toolpath, ParseError> {
+    Ok(parse_bytes(text, name, opts)?.toolpath)
 }
 
 /// [`read_written`], measured against `program` both ways to `accuracy_mm`: the path read
@@ -97,7 +106,18 @@ pub fn read_back(
     program: &Toolpath,
     accuracy_mm: f64,
 ) -> Result<(Toolpath, Deviation), ParseError> {
-    let written = read_written(text, name)?;
+    read_back_with(text, name, program, accuracy_mm, &Default::default())
+}
+
+/// [`read_back`] with the reader's options.
+pub fn read_back_with(
+    text: &[u8],
+    name: &str,
+    program: &Toolpath,
+    accuracy_mm: f64,
+    opts: &crate::ParseOptions,
+) -> Result<(Toolpath, Deviation), ParseError> {
+    let written = read_written_with(text, name, opts)?;
     let dev = deviation(&written, program, accuracy_mm);
     Ok((written, dev))
 }

@@ -191,6 +191,26 @@ pub enum ParseErrorKind {
         /// What needed the value (`condition of O100 if`, `F word`).
         what: String,
     },
+    /// An axis position beyond what the numerics carry to the micrometre
+    /// ([`crate::interp::motion::MAX_COORDINATE`]).
+    #[error("{letter} reaches {value:e}, beyond the range ncsmooth computes in (|position| at most {max:e} mm, or degrees for A, B and C)")]
+    CoordinateRange {
+        /// The axis letter.
+        letter: char,
+        /// The position it reaches (mm, or degrees).
+        value: f64,
+        /// The largest allowed.
+        max: f64,
+    },
+    /// The program needs more blocks held at once than the reader may hold
+    /// ([`crate::ParseOptions::max_held_blocks`]), or more memory than the system gives.
+    #[error("the program runs to more than {limit} moves and events held at once ({why}); `ncsmooth plan` reads a program of any size as it goes")]
+    TooLarge {
+        /// The limit reached.
+        limit: usize,
+        /// What ran out: the limit, or the system's memory.
+        why: &'static str,
+    },
     /// Malformed or unmatched O-word control flow (`endwhile` without `while`, a `call`
     /// to a subroutine the file does not define).
     #[error("{why}")]

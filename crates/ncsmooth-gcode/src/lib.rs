@@ -76,8 +76,15 @@ pub use writer::{write, write_to, WriteOptions};
 
 use ncsmooth::Toolpath;
 
+/// Most blocks (moves and events) a reader holds at once, by default: about 1.8 GB of
+/// blocks. A whole program ([`parse_bytes`]) holds all of its own, so a larger one (a loop
+/// that runs millions of times, a CAM file of tens of millions of lines) is refused with
+/// [`ParseErrorKind::TooLarge`] instead of taking the machine's memory; a
+/// [`BlockReader`] hands its blocks out as it reads and holds few.
+pub const MAX_HELD_BLOCKS: usize = 8_000_000;
+
 /// Parser settings.
-#[derive(Clone, Debug, PartialEq, Default)]
+#[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub struct ParseOptions {
     /// The machine's stored state (offsets, tool table, home positions, start position),
@@ -88,9 +95,44 @@ pub struct ParseOptions {
     pub machine: Option<MachineModel>,
     /// Record the canonical commands ([`Program::canon`]). Default false.
     pub canon: bool,
+    /// Most blocks held at once ([`ParseErrorKind::TooLarge`] beyond). Default
+    /// [`MAX_HELD_BLOCKS`].
+    pub max_held_blocks: usize,
+    /// Units of a program until its first G20/G21. LinuxCNC reads such a program in the
+    /// machine's units (its `[TRAJ] LINEAR_UNITS`; `rs274` standalone: inches); a program
+    /// that moves before choosing gets a warning ([`ParseStats::units_assumed`]). Default
+    /// millimetres.
+    pub default_units: Units,
+}
+
+impl Default for ParseOptions {
+    fn default() -> Self {
+        ParseOptions {
+            machine: None,
+            canon: false,
+            max_held_blocks: MAX_HELD_BLOCKS,
+            default_units: Units::Millimetres,
+        }
+    }
 }
 
 impl ParseOptions {
+    /// The same options reading a program in `units` until its first G20/G21.
+    pub fn with_default_units(self, units: Units) -> ParseOptions {
+        ParseOptions {
+            default_units: units,
+            ..self
+        }
+    }
+
+    /// The same options holding at most `n` blocks at once.
+    pub fn with_max_held_blocks(self, n: usize) -> ParseOptions {
+        ParseOptions {
+            max_held_blocks: n,
+            ..self
+        }
+    }
+
     /// Options with a known machine model.
     pub fn with_machine(machine: MachineModel) -> ParseOptions {
         ParseOptions {
@@ -132,6 +174,9 @@ pub struct ParseStats {
     pub zero_length_moves: usize,
     /// Units selected by the program (G20/G21), in order of first appearance.
     pub units_seen: Vec<Units>,
+    /// The line of the first move made before any G20/G21, read in
+    /// [`ParseOptions::default_units`].
+    pub units_assumed: Option<u32>,
     /// Planes selected by the program (G17/G18/G19), in order of first appearance.
     pub planes_seen: Vec<Plane>,
     /// Motions ncsmooth cannot place ([`ncsmooth::path::EventKind::Untracked`]: G53, G28,

@@ -178,7 +178,7 @@ impl<'o> BlockReader<'o> {
         self.extra_axes_mask | self.interp.tp.extra_axes_mask
     }
 
-    /// Units of the program (the first selected, else millimetres), as
+    /// Units of the program (the first selected, else the default units), as
     /// [`ncsmooth::Toolpath::units`] of [`crate::parse_bytes`] (final once read).
     pub fn units(&self) -> Units {
         self.interp
@@ -186,7 +186,7 @@ impl<'o> BlockReader<'o> {
             .units_seen
             .first()
             .copied()
-            .unwrap_or_default()
+            .unwrap_or(self.interp.opts.default_units)
     }
 
     /// Start of the program's first move, once it has been handed out.

@@ -533,3 +533,69 @@ fn cycle_lines_are_written_back_verbatim() {
     };
     assert_eq!(ends(&back), ends(&p));
 }
+
+#[test]
+fn polar_words_place_the_holes_under_g90() {
+    // rs274 -g: about the origin; a block without one of them keeps the current point's
+    // radius or angle (`^120` at radius 10, `@5` at 120 degrees).
+    assert_trace(
+        "G21 G17 G90 G98 F100\nG0 X0 Y0 Z10\nG81 @10 ^30 R2 Z-1\n^120\n@5\nG80\n",
+        3,
+        &[
+            "G0 8.6603 5.0000 10.0000",
+            "G0 8.6603 5.0000 2.0000",
+            "G1 8.6603 5.0000 -1.0000",
+            "G0 8.6603 5.0000 10.0000",
+            "G0 -5.0000 8.6603 10.0000",
+            "G0 -5.0000 8.6603 2.0000",
+            "G1 -5.0000 8.6603 -1.0000",
+            "G0 -5.0000 8.6603 10.0000",
+            "G0 -2.5000 4.3301 10.0000",
+            "G0 -2.5000 4.3301 2.0000",
+            "G1 -2.5000 4.3301 -1.0000",
+            "G0 -2.5000 4.3301 10.0000",
+        ],
+    );
+}
+
+#[test]
+fn polar_words_are_increments_at_every_repeat_under_g91() {
+    // rs274 -g: each repeat grows the radius by 2 and then turns by 90 degrees.
+    assert_trace(
+        "G21 G17 G90 G99 F100\nG0 X10 Y0 Z10\nG91 G81 @2 ^90 R-8 Z-3 L3\nG80\n",
+        3,
+        &[
+            "G0 0.0000 12.0000 10.0000",
+            "G0 0.0000 12.0000 2.0000",
+            "G1 0.0000 12.0000 -1.0000",
+            "G0 0.0000 12.0000 2.0000",
+            "G0 -14.0000 0.0000 2.0000",
+            "G1 -14.0000 0.0000 -1.0000",
+            "G0 -14.0000 0.0000 2.0000",
+            "G0 0.0000 -16.0000 2.0000",
+            "G1 0.0000 -16.0000 -1.0000",
+            "G0 0.0000 -16.0000 2.0000",
+        ],
+    );
+}
+
+#[test]
+fn polar_words_in_a_cycle_keep_linuxcncs_errors() {
+    for (src, why) in [
+        (
+            "G21 G18 G90 F100\nG0 X1 Y0 Z10\nG81 @10 ^30 R2 Y-1\n",
+            "G17",
+        ),
+        (
+            "G21 G17 G90 F100\nG0 X1 Y0 Z10\nG81 @10 X3 R2 Z-1\n",
+            "X or Y",
+        ),
+        (
+            "G21 G17 G90 F100\nG0 X0 Y0 Z10\nG91 G81 ^30 R-2 Z-1\n",
+            "origin",
+        ),
+    ] {
+        let e = err(src);
+        assert!(e.to_string().contains(why), "{src}: {e}");
+    }
+}

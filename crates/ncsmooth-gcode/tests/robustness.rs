@@ -214,3 +214,60 @@ fn call_trees_that_never_end_are_errors() {
         assert!(e.to_string().contains("does not end"), "{e}");
     }
 }
+
+/// A whole program holds at most `max_held_blocks` blocks: a loop without end is refused
+/// there, naming its line, where it used to grow until memory ran out; a
+/// [`ncsmooth_gcode::BlockReader`] hands its blocks out and is not limited by it.
+#[test]
+fn an_endless_loop_is_refused_at_the_held_block_limit() {
+    let src = "G21 G90 F600\nG0 X0 Y0 Z0\no100 while [1]\nG1 X1\nG1 X0\no100 endwhile\nM2\n";
+    let opts = ncsmooth_gcode::ParseOptions::default().with_max_held_blocks(1000);
+    let e = ncsmooth_gcode::parse_str(src, "loop.ngc", &opts).unwrap_err();
+    assert!(
+        matches!(
+            e.kind,
+            ncsmooth_gcode::ParseErrorKind::TooLarge { limit: 1000, .. }
+        ),
+        "{e}"
+    );
+    assert!(e.line == 4 || e.line == 5, "{e}");
+    // A finite loop of more moves than the limit streams through a reader.
+    let dir = std::env::temp_dir().join(format!("ncsmooth-held-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("loop.ngc");
+    let src = "G21 G90 F600\nG0 X0 Y0 Z0\n#1=0\no100 while [#1 LT 3000]\nG1 X1\nG1 X0\n#1=[#1+1]\no100 endwhile\nM2\n";
+    std::fs::write(&path, src).unwrap();
+    let mut reader = ncsmooth_gcode::BlockReader::open(&path, "loop.ngc", &opts).unwrap();
+    let (mut blocks, mut n) = (Vec::new(), 0);
+    while reader.read_blocks(&mut blocks, 100).unwrap() {
+        n += blocks.len();
+        blocks.clear();
+    }
+    n += blocks.len();
+    assert!(n >= 6000, "{n}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Until its first G20/G21 a program is read in the reader's default units, and a move
+/// made before choosing is noted and warned about.
+#[test]
+fn a_program_without_units_is_read_in_the_default_units() {
+    let src = "F10\nG0 X0 Y0 Z0\nG1 X1\nG20\nG1 X2\n";
+    for (units, x1) in [
+        (ncsmooth::Units::Millimetres, 1.0),
+        (ncsmooth::Units::Inches, 25.4),
+    ] {
+        let opts = ncsmooth_gcode::ParseOptions::default().with_default_units(units);
+        let p = ncsmooth_gcode::parse_str(src, "u.ngc", &opts).unwrap();
+        let ends: Vec<f64> = p.toolpath.moves().map(|m| m.segment.end().x).collect();
+        assert_eq!(ends, vec![x1, 50.8], "{units:?}");
+        assert_eq!(p.stats.units_assumed, Some(2), "{units:?}");
+        assert!(p
+            .stats
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("before any G20/G21")));
+    }
+    let p = ncsmooth_gcode::parse_str("G21 F10\nG1 X1\n", "u.ngc", &Default::default()).unwrap();
+    assert_eq!(p.stats.units_assumed, None);
+}

@@ -650,6 +650,6 @@ fn unused_words_are_errors() {
         );
         assert!(e.to_string().contains(&format!(":1:{col}")), "{src}: {e}");
     }
-    let p = parse("G0 X1 Y2\nG1 X2 F100\nG2 X3 Y3 I0.5 J0.5");
+    let p = parse("G21 G0 X1 Y2\nG1 X2 F100\nG2 X3 Y3 I0.5 J0.5");
     assert!(p.stats.warnings.is_empty(), "{:?}", p.stats.warnings);
 }

@@ -10,8 +10,11 @@
 //! under G19. The other two are the plane's axes, in LinuxCNC's order (X Y, Z X, Y Z):
 //! written `a` and `b` below, the drilling axis `n`. Its word (Z, Y or X) gives the
 //! bottom of the hole. A, B, C (and U, V, W, E) words are refused in a cycle block
-//! ("Cannot put an A in canned cycle"). Polar words (which LinuxCNC allows under G17)
-//! are refused.
+//! ("Cannot put an A in canned cycle"). Polar words (`@` radius, `^` angle in degrees,
+//! G17 only) place the hole as LinuxCNC's `convert_cycle_xy` does: under G90 about the
+//! origin (a missing word from the current point's radius or angle); under G91 they are
+//! increments of the radius and then of the angle, applied at every repeat after the X
+//! and Y increments (an error at the origin).
 //!
 //! # Levels and repeats
 //!
@@ -340,12 +343,7 @@ impl Interp<'_> {
                 ));
             }
         }
-        if self.has(b'@') || self.has(b'^') {
-            return Err(self.cycle_err(
-                code10,
-                "polar coordinates are not supported in canned cycles",
-            ));
-        }
+        let polar = self.cycle_polar(code10)?;
         if self.m.feed.is_none() {
             return Err(self.err_line(ParseErrorKind::NoFeedRate));
         }
@@ -421,6 +419,28 @@ impl Interp<'_> {
                 Some(v) => Lv::word(v, scale),
                 None => cur[pl.b],
             };
+            // Polar words (G17 only): about the origin, a missing one from the current
+            // point's radius or angle.
+            let (aa, bb) = match polar {
+                Some((radius, theta)) => {
+                    let (x, y) = (cur[0], cur[1]);
+                    let r = radius.unwrap_or_else(|| y.p.hypot(x.p));
+                    let th = theta.unwrap_or_else(|| y.p.atan2(x.p));
+                    let known = x.known && y.known || radius.is_some() && theta.is_some();
+                    let (a, b) = (Lv::word(r * th.cos(), scale), Lv::word(r * th.sin(), scale));
+                    (
+                        Lv {
+                            known: a.known && known,
+                            ..a
+                        },
+                        Lv {
+                            known: b.known && known,
+                            ..b
+                        },
+                    )
+                }
+                None => (aa, bb),
+            };
             let r = Lv::word(r_word, scale);
             (
                 aa,
@@ -430,9 +450,12 @@ impl Interp<'_> {
                 Increments::default(),
             )
         } else {
+            let (radius, theta) = polar.unwrap_or((None, None));
             let inc = Increments {
                 a: self.prog_word(AXIS_LETTERS[pl.a]).unwrap_or(0.0),
                 b: self.prog_word(AXIS_LETTERS[pl.b]).unwrap_or(0.0),
+                radius: radius.unwrap_or(0.0),
+                theta_rad: theta.unwrap_or(0.0),
             };
             let r = initial.plus(r_word, scale);
             let bottom = r.plus(bottom_word, scale);
@@ -494,6 +517,9 @@ impl Interp<'_> {
         for rep in 0..repeats {
             aa = aa.plus(inc.a, scale);
             bb = bb.plus(inc.b, scale);
+            (aa, bb) = inc
+                .polar(aa, bb, scale)
+                .map_err(|e| self.cycle_err(code10, e))?;
             decided &= current_n.known && r.known && clear.known;
             let mut repeat = || -> Result<(), &'static str> {
                 if rep == 0 && current_n.p > r.p {
@@ -523,6 +549,28 @@ impl Interp<'_> {
         }
         self.emit_cycle(code10, &sim, cur, decided, [aa, bb, clear]);
         Ok(())
+    }
+
+    /// The polar words of a cycle block, `(@ in program units, ^ in rad)`, if it has any:
+    /// under G17 only, and without X or Y (LinuxCNC's `enhance_block`).
+    fn cycle_polar(&mut self, code10: u16) -> Result<Option<PolarWords>, ParseError> {
+        if !(self.has(b'@') || self.has(b'^')) {
+            return Ok(None);
+        }
+        if self.m.plane != crate::Plane::XY {
+            return Err(self.cycle_err(
+                code10,
+                "cannot use polar coordinates except in the G17 plane",
+            ));
+        }
+        if self.has(b'X') || self.has(b'Y') {
+            return Err(
+                self.cycle_err(code10, "cannot specify X or Y words with polar coordinates")
+            );
+        }
+        let radius = self.known_val(b'@')?;
+        let theta = self.known_val(b'^')?.map(f64::to_radians);
+        Ok(Some((radius, theta)))
     }
 
     /// `L`: the number of repeats.
@@ -746,11 +794,49 @@ struct Cycle {
     dir: i8,
 }
 
-/// Plane increments of an incremental block.
+/// A cycle block's polar words: `@` (program units) and `^` (rad), each if given.
+type PolarWords = (Option<f64>, Option<f64>);
+
+/// Plane increments of an incremental block: of the plane's axes, then of the radius and
+/// the angle about the origin (polar words, G17 only), applied in that order at every
+/// repeat (LinuxCNC's `CYCLE_MACRO`).
 #[derive(Clone, Copy, Debug, Default)]
 struct Increments {
     a: f64,
     b: f64,
+    /// `@` (program units).
+    radius: f64,
+    /// `^` (rad).
+    theta_rad: f64,
+}
+
+impl Increments {
+    /// The hole after the polar increments, from `(aa, bb)` (program units): the radius
+    /// grows by `radius`, then the point turns by `theta_rad` about the origin.
+    fn polar(&self, aa: Lv, bb: Lv, scale: f64) -> Result<(Lv, Lv), &'static str> {
+        let (mut a, mut b) = (aa, bb);
+        for (dr, dt) in [(self.radius, 0.0), (0.0, self.theta_rad)] {
+            if dr == 0.0 && dt == 0.0 {
+                continue;
+            }
+            if a.p == 0.0 && b.p == 0.0 {
+                return Err(
+                    "incremental motion with polar coordinates is indeterminate when at the origin",
+                );
+            }
+            let (r, th) = (b.p.hypot(a.p) + dr, b.p.atan2(a.p) + dt);
+            let known = a.known && b.known;
+            a = Lv {
+                known,
+                ..Lv::word(r * th.cos(), scale)
+            };
+            b = Lv {
+                known,
+                ..Lv::word(r * th.sin(), scale)
+            };
+        }
+        Ok((a, b))
+    }
 }
 
 /// A millimetre position in program units (see the module doc).

@@ -134,6 +134,11 @@ pub(crate) struct Interp<'a> {
     pub(crate) line_modal_motion: bool,
 }
 
+/// Room for blocks [`Interp::check_held`] keeps after each line: a line adds a few (a
+/// canned cycle's repeats, a spline's pieces), and a push beyond the room reserved would
+/// abort where memory runs out.
+const HELD_HEADROOM_BLOCKS: usize = 4096;
+
 impl<'a> Interp<'a> {
     pub(crate) fn new(text: Text<'a>, file: &'a str, opts: &'a ParseOptions) -> Self {
         let f = match &opts.machine {
@@ -154,7 +159,10 @@ impl<'a> Interp<'a> {
             pin_everything: false,
             pc: 0,
             next_pc: 0,
-            m: Modal::default(),
+            m: Modal {
+                units: opts.default_units,
+                ..Modal::default()
+            },
             f,
             e: 0.0,
             store: params::Store::new(),
@@ -195,7 +203,10 @@ impl<'a> Interp<'a> {
         self.map.lines = lines;
         // One block per line at most, give or take: reserve up front instead of growing
         // (and copying) a vector of 200-byte blocks many times.
-        self.tp.blocks.reserve(self.scan.n_lines + 1);
+        let want = (self.scan.n_lines + 1).min(self.opts.max_held_blocks);
+        if self.tp.blocks.try_reserve(want).is_err() {
+            return Err(self.too_large("the system's memory ran out"));
+        }
         while self.step()? {}
         self.finish()?;
         Ok(Program {
@@ -242,9 +253,54 @@ impl<'a> Interp<'a> {
         self.raw_end = end;
         self.next_pc = self.pc + 1;
         self.exec_line()?;
+        self.check_held()?;
+        self.note_assumed_units();
         self.pc_offset = self.offset_of(self.next_pc);
         self.pc = self.next_pc;
         Ok(true)
+    }
+
+    /// The blocks held stay within [`ParseOptions::max_held_blocks`], and the next lines
+    /// have room to grow them into (reserved here, where running out of memory is an
+    /// error, rather than in a push, where it would abort).
+    fn check_held(&mut self) -> Result<(), ParseError> {
+        let held = self.tp.blocks.len();
+        if held > self.opts.max_held_blocks {
+            return Err(self.too_large("the reader's limit"));
+        }
+        if self.tp.blocks.capacity() - held < HELD_HEADROOM_BLOCKS {
+            let more = held.max(HELD_HEADROOM_BLOCKS);
+            if self.tp.blocks.try_reserve(more).is_err() {
+                return Err(self.too_large("the system's memory ran out"));
+            }
+        }
+        Ok(())
+    }
+
+    /// A first move before any G20/G21: read in the default units, which LinuxCNC may not
+    /// share (see [`ParseOptions::default_units`]).
+    fn note_assumed_units(&mut self) {
+        let s = &self.stats;
+        if s.units_assumed.is_some() || !s.units_seen.is_empty() || s.g0 + s.g1 + s.g2 + s.g3 == 0 {
+            return;
+        }
+        self.stats.units_assumed = Some(self.line_no);
+        let (name, other) = match self.opts.default_units {
+            Units::Millimetres => ("millimetres", "inch"),
+            Units::Inches => ("inches", "mm"),
+        };
+        self.warn(format!(
+            "the program moves before any G20/G21: read in {name}; LinuxCNC reads it in the \
+             machine's units ([TRAJ] LINEAR_UNITS; rs274 alone: inches): give --units {other} \
+             if the machine's are {other}"
+        ));
+    }
+
+    fn too_large(&self, why: &'static str) -> ParseError {
+        self.err_line(ParseErrorKind::TooLarge {
+            limit: self.opts.max_held_blocks,
+            why,
+        })
     }
 
     /// After the last line: open blocks are errors; the toolpath's start and units.
@@ -253,9 +309,12 @@ impl<'a> Interp<'a> {
         if self.main_m99 {
             self.pin_all();
         }
-        if let Some(&u) = self.stats.units_seen.first() {
-            self.tp.units = u;
-        }
+        self.tp.units = self
+            .stats
+            .units_seen
+            .first()
+            .copied()
+            .unwrap_or(self.opts.default_units);
         let first = self
             .tp
             .moves()

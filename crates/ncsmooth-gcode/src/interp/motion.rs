@@ -42,6 +42,11 @@ use crate::Plane;
 use ncsmooth::geom::{Arc, Line, Vec3};
 use ncsmooth::path::{EventKind, ExtraAxes, Move, MoveKind, Units, E_AXIS};
 
+/// Largest position an axis may reach (mm, or degrees for A B C): 1000 km, where an f64
+/// still resolves 1.2e-7 mm. Beyond it a position cannot carry the micrometre-level
+/// geometry of smoothing and verification, and the program is refused.
+pub const MAX_COORDINATE: f64 = 1e9;
+
 /// LinuxCNC's `RADIUS_TOLERANCE_INCH`: the smallest arc radius, and the slack of an R
 /// arc's chord over its diameter (inch).
 pub const RADIUS_TOLERANCE_INCH: f64 = 0.00005;
@@ -238,7 +243,7 @@ impl Interp<'_> {
             t.pos = self.f.pos;
             t.known = (self.f.known & t.commanded) | (saved.1 & !t.commanded);
             (self.f.pos, self.f.known) = saved;
-            return Ok(t);
+            return self.in_range(t);
         }
         for i in 0..N_AXES {
             let Some(v) = words[i] else { continue };
@@ -254,6 +259,33 @@ impl Interp<'_> {
             t.commanded |= 0b11;
             set_target(&mut t, 0, Some(x));
             set_target(&mut t, 1, Some(y));
+        }
+        self.in_range(t)
+    }
+
+    /// `t`, when every axis it commands is within [`MAX_COORDINATE`] (else an error at
+    /// the axis's word).
+    fn in_range(&self, t: Target) -> Result<Target, ParseError> {
+        for i in 0..N_AXES {
+            let known = t.known & bit(i) != 0;
+            if t.commanded & bit(i) != 0 && known && t.pos[i].abs() > MAX_COORDINATE {
+                let letter = AXIS_LETTERS[i];
+                let w = if self.has(letter) {
+                    self.word_of(letter)
+                } else {
+                    self.letters[SLOT_AT]
+                        .or(self.letters[SLOT_CARET])
+                        .unwrap_or(0)
+                };
+                return Err(self.err_word(
+                    w,
+                    ParseErrorKind::CoordinateRange {
+                        letter: letter as char,
+                        value: t.pos[i],
+                        max: MAX_COORDINATE,
+                    },
+                ));
+            }
         }
         Ok(t)
     }
