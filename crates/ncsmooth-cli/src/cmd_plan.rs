@@ -689,6 +689,7 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
             JerkSchemeArg::Filter => JerkScheme::Filter,
             JerkSchemeArg::Follow => JerkScheme::Follow,
         },
+        top_speed_mm_s: None,
     };
     popts
         .validate()

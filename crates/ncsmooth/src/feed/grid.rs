@@ -888,7 +888,7 @@ impl<'o> IndexBuilder<'o> {
             return 0;
         };
         let reach = self.caps.jerk.map_or(0.0, |j| {
-            JOINT_STENCIL_PERIODS * j.period_s * self.opts.feed_mm_s.max(self.opts.rapid())
+            JOINT_STENCIL_PERIODS * j.period_s * self.opts.top_speed()
         });
         // The next joint is at the last move's end; a move ending before `from` is out
         // of its reach.

@@ -371,7 +371,7 @@ fn plan_with(
     // Jerk mode: dilation radius, committed sources behind the window, work arrays.
     let radius = caps
         .jerk
-        .map(|j| super::jerk::dilation_radius_mm(opts.feed_mm_s.max(opts.rapid()), j.window_s));
+        .map(|j| super::jerk::dilation_radius_mm(opts.top_speed(), j.window_s));
     let mut tail: Vec<(f64, f64)> = Vec::new();
     // Jerk mode: end of the last curved interval committed (lines far from curves take
     // the larger tangential limit, see `super::jerk` point 6), and a work array.

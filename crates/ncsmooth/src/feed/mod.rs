@@ -193,6 +193,13 @@ pub struct PlanOptions {
     pub jerk_split: Option<jerk::JerkSplit>,
     /// Jerk mode: how the S-curve is made. Default [`JerkScheme::Filter`].
     pub jerk_scheme: JerkScheme,
+    /// The fastest any move of the path may go (mm/s), when known below the feed and
+    /// rapid limits: the programmed feeds' largest under `feed_mm_s`, the rapid speed if
+    /// the path has rapids. It sets jerk mode's window and the reach of its dilated caps
+    /// ([`PlanOptions::top_speed`]), which the limits alone would size for a speed no
+    /// move reaches. Default `None`: [`crate::interp::execute_into`] finds it on the
+    /// path; a streamed plan takes the feed and rapid limits.
+    pub top_speed_mm_s: Option<f64>,
 }
 
 /// How jerk mode makes its S-curve.
@@ -221,6 +228,7 @@ impl Default for PlanOptions {
             junction_dev_mm: None,
             jerk_split: None,
             jerk_scheme: JerkScheme::Filter,
+            top_speed_mm_s: None,
         }
     }
 }
@@ -335,6 +343,26 @@ impl PlanOptions {
     pub fn rapid(&self) -> f64 {
         self.rapid_mm_s.unwrap_or(self.feed_mm_s)
     }
+    /// The fastest speed of the path (mm/s): the larger of the feed and rapid limits, or
+    /// [`PlanOptions::top_speed_mm_s`] when that is lower.
+    pub fn top_speed(&self) -> f64 {
+        let limits = self.feed_mm_s.max(self.rapid());
+        self.top_speed_mm_s
+            .filter(|v| *v > 0.0)
+            .map_or(limits, |v| v.min(limits))
+    }
+    /// [`PlanOptions::top_speed_mm_s`] of `path`: each feed move at its programmed feed
+    /// under the feed limit, each rapid at the rapid speed.
+    pub fn top_speed_of(&self, path: &crate::path::Toolpath) -> f64 {
+        path.moves()
+            .map(|m| match m.kind {
+                crate::path::MoveKind::Rapid => self.rapid(),
+                crate::path::MoveKind::Feed => m
+                    .feed_mm_s
+                    .map_or(self.feed_mm_s, |f| f.min(self.feed_mm_s)),
+            })
+            .fold(0.0, f64::max)
+    }
     /// The jerk-mode caps, when jerk limiting is asked for (options must be valid).
     pub fn jerk_caps(&self) -> Option<jerk::JerkCaps> {
         if self.jerk_scheme == JerkScheme::Follow {
@@ -346,7 +374,7 @@ impl PlanOptions {
                 self.acc_mm_s2.map(|a| planned_acc(a, self.period_s)),
                 j,
                 self.period_s,
-                self.feed_mm_s.max(self.rapid()),
+                self.top_speed(),
                 self.jerk_split.unwrap_or(jerk::JerkSplit::DEFAULT),
             )
         })

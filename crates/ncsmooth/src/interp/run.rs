@@ -474,20 +474,19 @@ pub fn execute_into<S: SetpointSink + Send>(
 ) -> Result<(PlanReport, S), PlanError> {
     popts.validate().map_err(PlanError::Options)?;
     let clock = Instant::now();
-    // Jerk mode without a given split: the fastest candidate for this path.
-    let tuned;
-    let popts = if popts.jerk_mm_s3.is_some()
-        && popts.jerk_split.is_none()
-        && popts.jerk_scheme == JerkScheme::Filter
-    {
-        tuned = PlanOptions {
-            jerk_split: Some(crate::feed::jerk::fastest_split(path, popts)),
-            ..popts.clone()
-        };
-        &tuned
-    } else {
-        popts
+    // The path's own top speed (raising a limit no move reaches changes nothing), and in
+    // jerk mode without a given split the fastest candidate for this path.
+    let mut tuned = PlanOptions {
+        top_speed_mm_s: popts.top_speed_mm_s.or(Some(popts.top_speed_of(path))),
+        ..popts.clone()
     };
+    if tuned.jerk_mm_s3.is_some()
+        && tuned.jerk_split.is_none()
+        && tuned.jerk_scheme == JerkScheme::Filter
+    {
+        tuned.jerk_split = Some(crate::feed::jerk::fastest_split(path, &tuned));
+    }
+    let popts = &tuned;
     let index = PathIndex::new(path, popts);
     let index_s = clock.elapsed().as_secs_f64();
     run_index(&index, popts, iopts, sink, clock, index_s)

@@ -1291,11 +1291,13 @@ fn streamed_close_joints_equal_the_whole_plan() {
         }
     }
     let tp = t.tp;
-    let popts = PlanOptions {
+    let mut popts = PlanOptions {
         jerk_mm_s3: Some([5000.0; 3]),
         jerk_split: Some(crate::feed::jerk::JerkSplit::DEFAULT),
         ..Default::default()
     };
+    // The whole plan finds the path's top speed; the streamed one is given it.
+    popts.top_speed_mm_s = Some(popts.top_speed_of(&tp));
     let iopts = InterpOptions::default();
     let (whole_rep, whole): (_, Vec<Setpoint>) =
         execute_into(&tp, &popts, &iopts, Vec::new()).unwrap();
