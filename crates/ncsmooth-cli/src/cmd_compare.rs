@@ -51,6 +51,7 @@ const SETPOINT_BUFFER_BYTES: usize = 1 << 20;
 
 /// Arguments of `compare`.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct CompareArgs {
     /// G-code file, or `-` for stdin.
     pub file: String,

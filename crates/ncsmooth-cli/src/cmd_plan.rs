@@ -94,6 +94,7 @@ pub enum NewtonStop {
 
 /// Arguments of `plan`.
 #[derive(Args, Clone, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct PlanArgs {
     /// G-code file, `-` for stdin, or `builtin:butterfly`.
     pub file: String,
@@ -636,7 +637,7 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
         && a.file != "-"
         && a.report_html.is_none()
         && a.path_samples.is_none();
-    let parse_opts = ncsmooth_gcode::ParseOptions::default();
+    let parse_opts = crate::parse_options().clone();
     let name = if a.file == BUILTIN_BUTTERFLY {
         a.file.clone()
     } else {
@@ -657,10 +658,17 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     } else if streamed {
         let input =
             StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol, shape)?;
+        if let Some(line) = input.units_assumed() {
+            ui.status(crate::units_warning(&name, line));
+        }
         streamed_input = Some(input);
         None
     } else {
-        Some(load(&a.file)?.program.toolpath)
+        let program = load(&a.file)?.program;
+        if let Some(line) = program.stats.units_assumed {
+            ui.status(crate::units_warning(&name, line));
+        }
+        Some(program.toolpath)
     };
     let parse_s = t0.elapsed().as_secs_f64();
     // Every output is opened before the work (a bad directory fails at once) and moved into

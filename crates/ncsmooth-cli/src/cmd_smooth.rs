@@ -30,9 +30,9 @@ use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, Loo
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, SmoothReport};
 use ncsmooth::stats::PathStats;
 use ncsmooth::verify::{continuity, Continuity, Deviation};
-use ncsmooth_gcode::budget::{read_back, read_written, Budget};
+use ncsmooth_gcode::budget::{read_back_with, read_written_with, Budget};
 use ncsmooth_gcode::rewrite::{Blend, BlockFloor, CornerBlend, Emit};
-use ncsmooth_gcode::{Dialect, RewriteOptions};
+use ncsmooth_gcode::{Dialect, RewriteOptions, Units};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -174,6 +174,7 @@ pub enum CornerArg {
 
 /// Arguments of `smooth`.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct SmoothArgs {
     /// G-code file, or `-` for stdin.
     pub file: String,
@@ -387,6 +388,10 @@ pub struct Timings {
 pub struct SmoothRunReport {
     /// Input name.
     pub input: String,
+    /// Units the program was read in before its first G20/G21 (`--units`), when it moves
+    /// before choosing: `(units, line of the first such move)`. LinuxCNC reads such a
+    /// program in the machine's units.
+    pub units_assumed: Option<(Units, u32)>,
     /// Tolerance asked for (mm).
     pub tol_mm: f64,
     /// Tolerance the curves were built to (mm): `tol - chord - rounding`, less `P + Q` of
@@ -833,13 +838,19 @@ fn smooth_program_with(
     // measured by their own bound, and the two-sided tolerance on the same text written
     // without them.
     let unreadable = |e| anyhow::anyhow!("the written G-code does not read back: {e}");
+    // Read back as the program was read (its default units).
+    let opts = crate::parse_options();
     let accuracy = tol * VERIFY_ACCURACY_SHARE;
     let (as_written, dev) = if loop_mode {
         let text = write(&without_loops(&smoothed.toolpath))?;
-        let (_, dev) = read_back(&text, name, &program.toolpath, accuracy).map_err(unreadable)?;
-        (read_written(&gcode, name).map_err(unreadable)?, dev)
+        let (_, dev) =
+            read_back_with(&text, name, &program.toolpath, accuracy, opts).map_err(unreadable)?;
+        (
+            read_written_with(&gcode, name, opts).map_err(unreadable)?,
+            dev,
+        )
     } else {
-        read_back(&gcode, name, &program.toolpath, accuracy).map_err(unreadable)?
+        read_back_with(&gcode, name, &program.toolpath, accuracy, opts).map_err(unreadable)?
     };
     let blocks = BlockReport::of(src, &program.toolpath, &gcode, &as_written, dialect);
     let extra_axes_mismatch =
@@ -848,8 +859,7 @@ fn smooth_program_with(
         ncsmooth::verify::extrusion_along_path(&program.toolpath, &as_written, tol);
     let executed = match (blend, loop_mode) {
         (Some(b), false) => {
-            let written = ncsmooth_gcode::parse_bytes(&gcode, name, &Default::default())
-                .map_err(unreadable)?;
+            let written = ncsmooth_gcode::parse_bytes(&gcode, name, opts).map_err(unreadable)?;
             let cap = verbatim_blend.map_or(b.p_mm, |v| v.p_mm.max(b.p_mm));
             Some(ncsmooth_gcode::executed::linuxcnc_executed(
                 &written,
@@ -871,6 +881,10 @@ fn smooth_program_with(
     t.verify_s = t0.elapsed().as_secs_f64();
     let report = SmoothRunReport {
         input: name.to_string(),
+        units_assumed: program
+            .stats
+            .units_assumed
+            .map(|line| (opts.default_units, line)),
         tol_mm: tol,
         curve_tol_mm: curve_tol,
         chord_mm: chord,
@@ -950,6 +964,17 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     let t0 = Instant::now();
     let loaded = load(&a.file)?;
     progress(FILTER_PROGRESS_PARSED);
+    if let Some(line) = loaded.program.stats.units_assumed {
+        ui.status(crate::units_warning(io::display_name(&a.file), line));
+    }
+    let st = &loaded.program.stats;
+    if st.g0 + st.g1 + st.g2 + st.g3 + st.untracked == 0 {
+        // LinuxCNC runs an empty program; so is it written, as it is.
+        ui.status(format!(
+            "warning: {}: the program has no motion; it is written as it is",
+            io::display_name(&a.file)
+        ));
+    }
     let program = &loaded.program;
     let parse_s = t0.elapsed().as_secs_f64();
     let name = io::display_name(&a.file);

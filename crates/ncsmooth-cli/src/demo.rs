@@ -19,6 +19,7 @@ const DEMO_FEED_MM_MIN: f64 = 3000.0;
 
 /// Arguments of `demo`.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct DemoArgs {
     /// Output directory.
     #[arg(long, default_value = "ncsmooth-demo")]

@@ -34,6 +34,10 @@ struct Cli {
     /// Print nothing but errors.
     #[arg(long, short, global = true)]
     quiet: bool,
+    /// Units of a program until its first G20/G21: LinuxCNC reads such a program in the
+    /// machine's units ([TRAJ] LINEAR_UNITS), so give the machine's here [default: mm].
+    #[arg(long, global = true, value_enum)]
+    units: Option<UnitsArg>,
     #[command(subcommand)]
     cmd: Option<Cmd>,
 }
@@ -53,6 +57,37 @@ enum Cmd {
     Compare(cmd_compare::CompareArgs),
     /// Run the demo on the built-in butterfly profile and write its report (the default).
     Demo(demo::DemoArgs),
+}
+
+/// `--units`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum UnitsArg {
+    /// Millimetres (G21).
+    Mm,
+    /// Inches (G20).
+    Inch,
+}
+
+/// The reader's settings from the command line (`--units`), set once in `main`.
+static PARSE_OPTIONS: std::sync::OnceLock<ncsmooth_gcode::ParseOptions> =
+    std::sync::OnceLock::new();
+
+/// The reader's settings every command reads (and reads back) programs with.
+pub fn parse_options() -> &'static ncsmooth_gcode::ParseOptions {
+    PARSE_OPTIONS.get_or_init(ncsmooth_gcode::ParseOptions::default)
+}
+
+/// The warning of a program that moves before any G20/G21 (first at `line`).
+pub fn units_warning(name: &str, line: u32) -> String {
+    let (units, other) = match parse_options().default_units {
+        ncsmooth::Units::Millimetres => ("millimetres", "inch"),
+        ncsmooth::Units::Inches => ("inches", "mm"),
+    };
+    format!(
+        "warning: {name}: no G20/G21 before the first move (line {line}): read in {units}; \
+         LinuxCNC reads such a program in the machine's units ([TRAJ] LINEAR_UNITS): \
+         give --units {other} for a machine in {other}"
+    )
 }
 
 /// Output verbosity shared by the subcommands.
@@ -85,6 +120,11 @@ fn run(cli: Cli) -> Result<()> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let units = match cli.units {
+        Some(UnitsArg::Inch) => ncsmooth::Units::Inches,
+        _ => ncsmooth::Units::Millimetres,
+    };
+    let _ = PARSE_OPTIONS.set(ncsmooth_gcode::ParseOptions::default().with_default_units(units));
     if let Err(e) = io::remove_temp_files_on_signals() {
         // The run can go on; an interruption may then leave a temporary file, which the
         // next run beside the same output removes.
@@ -121,7 +161,7 @@ pub struct Loaded {
 pub fn load(path: &str) -> Result<Loaded> {
     let src = io::read_input(path)?;
     let name = io::display_name(path);
-    match ncsmooth_gcode::parse_bytes(&src, name, &ncsmooth_gcode::ParseOptions::default()) {
+    match ncsmooth_gcode::parse_bytes(&src, name, parse_options()) {
         Ok(program) => Ok(Loaded { program, src }),
         Err(err) => {
             diag::report_parse_error(&err, &src);

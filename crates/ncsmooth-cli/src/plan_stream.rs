@@ -100,6 +100,12 @@ impl<'o> StreamedInput<'o> {
         Ok(input)
     }
 
+    /// The line of the first move read before any G20/G21, if it came within the blocks
+    /// read so far ([`ncsmooth_gcode::ParseStats::units_assumed`]).
+    pub fn units_assumed(&self) -> Option<u32> {
+        self.reader.stats().units_assumed
+    }
+
     /// Reads a batch of blocks and smooths them into `out`.
     fn pump(&mut self, out: &mut Vec<Block>) -> Result<(), ParseError> {
         let mut batch = Vec::with_capacity(READ_BATCH_BLOCKS);
