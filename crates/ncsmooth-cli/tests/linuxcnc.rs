@@ -11,8 +11,11 @@
 //! installs them. Without them the test prints why and passes. Ignored in debug builds:
 //! CI runs it in release (`cargo test --release -- --ignored`).
 
+mod random_programs;
+
+use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 /// Tolerance of the smoothing methods (mm).
 const TOL_MM: f64 = 0.01;
@@ -76,8 +79,14 @@ fn missing_tools() -> Option<String> {
 }
 
 fn smooth(input: &Path, method: &str, out: &Path) -> Result<(), String> {
+    smooth_with(input, method, &[], out)
+}
+
+/// [`smooth`] with more arguments.
+fn smooth_with(input: &Path, method: &str, args: &[&str], out: &Path) -> Result<(), String> {
     let o = Command::new(env!("CARGO_BIN_EXE_ncsmooth"))
         .args(["smooth", input.to_str().unwrap(), "--method", method])
+        .args(args)
         .args([
             "--tol",
             &TOL_MM.to_string(),
@@ -358,4 +367,190 @@ fn collect_ngc(root: &Path, d: &Path, out: &mut Vec<(String, PathBuf)>) {
             out.push((rel, p));
         }
     }
+}
+
+/// Programs of the differential test: seeds `1..=RANDOM_PROGRAMS`.
+const RANDOM_PROGRAMS: u64 = 200;
+/// What the differential test allows `none --emit native` (a copy): canon_check samples
+/// the path at a quarter of its tolerance, and at [`NONE_TOL_MM`] a program of a few
+/// hundred millimetres takes it seconds.
+const RANDOM_NONE_TOL_MM: f64 = 1e-3;
+
+/// canon_check run in one Python process per thread (`scripts/canon_batch.py`), with a
+/// `HOME` of its own ([`private_home`]).
+struct Batch {
+    child: std::process::Child,
+    out: std::io::BufReader<std::process::ChildStdout>,
+    home: PathBuf,
+}
+
+impl Batch {
+    fn new(tool: &Path) -> Result<Batch, String> {
+        let home = private_home()?;
+        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scripts/canon_batch.py");
+        let mut child = Command::new("python3")
+            .arg(script)
+            .arg(tool)
+            .env("HOME", &home)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .map_err(|e| e.to_string())?;
+        let out = std::io::BufReader::new(child.stdout.take().ok_or("no stdout")?);
+        Ok(Batch { child, out, home })
+    }
+
+    /// canon_check's verdict; `print_mm` is the resolution of rs274's printed positions,
+    /// within which rapids and the start and end may differ.
+    fn check(
+        &mut self,
+        original: &Path,
+        produced: &Path,
+        tol: f64,
+        print_mm: f64,
+    ) -> Result<String, String> {
+        let stdin = self.child.stdin.as_mut().ok_or("no stdin")?;
+        writeln!(
+            stdin,
+            "{}\t{}\t{tol}",
+            original.display(),
+            produced.display()
+        )
+        .map_err(|e| e.to_string())?;
+        stdin.flush().map_err(|e| e.to_string())?;
+        let mut line = String::new();
+        self.out.read_line(&mut line).map_err(|e| e.to_string())?;
+        let r: serde_json::Value =
+            serde_json::from_str(&line).map_err(|e| format!("{e}: {line:?}"))?;
+        if r.get("error").is_some() {
+            return Err(format!("canon_check raised: {}", r["error"]));
+        }
+        verdict(&r).or_else(|e| within_print(&r, print_mm).ok_or(e))
+    }
+}
+
+impl Drop for Batch {
+    fn drop(&mut self) {
+        drop(self.child.stdin.take());
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.home);
+    }
+}
+
+/// One unit of the last digit rs274 prints positions with (4 decimals in program units),
+/// in mm, for a program in inches (25.4e-4 mm) or millimetres (1e-4 mm).
+fn print_unit_mm(program: &str) -> f64 {
+    let inch = program
+        .lines()
+        .find(|l| l.contains("G20") || l.contains("G21"))
+        .is_some_and(|l| l.contains("G20"));
+    if inch {
+        25.4e-4
+    } else {
+        1e-4
+    }
+}
+
+/// A canon_check report that fails only on the rapids, start or end by at most one
+/// printed unit `print_mm`: rs274 prints positions to 4 decimals in program units, so
+/// in an inch program two positions a few 1e-17 inch apart, on either side of a rounding
+/// boundary, print 0.00254 mm apart, above canon_check's rapid tolerance of 0.001 mm.
+fn within_print(r: &serde_json::Value, print_mm: f64) -> Option<String> {
+    let failed = r["failed_checks"].as_array()?;
+    let only_ends = failed
+        .iter()
+        .all(|c| matches!(c.as_str(), Some("rapids" | "start" | "end")));
+    let within = |k: &str| r[k].as_f64().is_none_or(|v| v <= print_mm * (1.0 + 1e-9));
+    (only_ends && within("max_rapid_diff_mm") && within("start_gap_mm") && within("end_gap_mm"))
+        .then(|| format!("within rs274's printed resolution ({print_mm} mm): {failed:?}"))
+}
+
+/// The emitter a seed's program is written with: each in turn, so every method meets
+/// every emitter.
+fn emit_of(seed: u64, method: usize) -> &'static str {
+    ["lines", "arcs", "native"][(seed as usize + method) % 3]
+}
+
+/// The differential test: random valid programs (`random_programs`: micro-lines, arcs in
+/// every plane with ends off their circles, near-full, helical, multi-turn and R-format
+/// arcs, canned cycles in G90 and G91, inch and mm, G91 runs, events) smoothed by every
+/// method and read by LinuxCNC's interpreter: the same events in order, the same rapids,
+/// no invented axis motion and the feed path within tol both ways (`none` within 1e-4
+/// mm). Every program must first be one rs274 runs cleanly (checked against itself).
+#[test]
+#[ignore = "runs LinuxCNC's interpreter on every method's output: release only (CI)"]
+fn random_programs_match_linuxcnc_for_every_method() {
+    let Some(shared) = shared() else {
+        println!("SKIP: ../shared (canon_check.py) not found");
+        return;
+    };
+    if let Some(why) = missing_tools() {
+        println!("SKIP (LOUD): LinuxCNC differential test not run: {why}");
+        eprintln!("SKIP (LOUD): LinuxCNC differential test not run: {why}");
+        return;
+    }
+    let tool = shared.join("tools/canon_check.py");
+    let dir = std::env::temp_dir().join(format!("ncsmooth-random-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let programs: Vec<(u64, PathBuf, f64)> = (1..=RANDOM_PROGRAMS)
+        .map(|seed| {
+            let p = dir.join(format!("random_{seed}.ngc"));
+            let text = random_programs::program(seed);
+            std::fs::write(&p, &text).unwrap();
+            (seed, p, print_unit_mm(&text))
+        })
+        .collect();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(Vec::new());
+    let n_jobs = programs.len() * (METHODS.len() + 1);
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                let mut batch = Batch::new(&tool).expect("canon_batch.py starts");
+                loop {
+                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some((seed, input, print_mm)) = programs.get(k / (METHODS.len() + 1))
+                    else {
+                        break;
+                    };
+                    let j = k % (METHODS.len() + 1);
+                    let (name, r) = if j == METHODS.len() {
+                        // The program itself: the generator's programs must be valid.
+                        let r = batch.check(input, input, CHECK_TOL_MM, *print_mm);
+                        ("itself".to_string(), r)
+                    } else {
+                        let method = METHODS[j];
+                        let emit = emit_of(*seed, j);
+                        let out = dir.join(format!("random_{seed}.{method}.{emit}.ngc"));
+                        // `none` copies the program (an emitter compresses its lines
+                        // within tol). rs274 prints positions, arc centres included, to 4
+                        // decimals of the program's unit: in inches canon_check's arcs,
+                        // rebuilt from them, move by a few micrometres.
+                        let tol = match (method, emit) {
+                            ("none", "native") if *print_mm < 1e-3 => RANDOM_NONE_TOL_MM,
+                            _ => CHECK_TOL_MM,
+                        };
+                        let r = smooth_with(input, method, &["--emit", emit], &out)
+                            .and_then(|()| batch.check(input, &out, tol, *print_mm));
+                        (format!("{method} --emit {emit}"), r)
+                    };
+                    let ok = r.is_ok();
+                    let line = format!("random_{seed}.ngc {name}: {r:?}");
+                    if !ok {
+                        println!("{line}");
+                    }
+                    results.lock().unwrap().push((ok, line));
+                }
+            });
+        }
+    });
+    let results = results.into_inner().unwrap();
+    let failed = results.iter().filter(|r| !r.0).count();
+    println!("{} comparisons, {failed} failed", results.len());
+    if failed == 0 {
+        let _ = std::fs::remove_dir_all(&dir);
+    } else {
+        println!("programs and outputs kept in {}", dir.display());
+    }
+    assert_all_passed(&results, n_jobs);
 }
