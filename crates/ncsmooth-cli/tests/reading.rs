@@ -27,6 +27,28 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Writes `body` to `dir/name`, runs `smooth` on it, and asserts exit 2 with no output
+/// written; the stderr text.
+fn refused(dir: &Path, name: &str, body: &str) -> String {
+    let input = dir.join(name);
+    std::fs::write(&input, body).unwrap();
+    let out = dir.join("out.ngc");
+    let o = bin()
+        .args([
+            "smooth",
+            input.to_str().unwrap(),
+            "--method",
+            "bspline",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+    assert!(!out.exists(), "{name}");
+    stderr(&o)
+}
+
 fn shared() -> Option<PathBuf> {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     d.join("gcode").is_dir().then_some(d)
@@ -232,29 +254,15 @@ fn camotics_botomata_and_linuxcnc_tort_smooth() {
 /// internal error from 1e16 on).
 #[test]
 fn a_huge_coordinate_is_bad_input_naming_its_word() {
-    let d = tmpdir("huge");
-    let input = d.join("huge.ngc");
-    std::fs::write(
-        &input,
+    let e = refused(
+        &tmpdir("huge"),
+        "huge.ngc",
         "G21 G90 F600\nG0 X0 Y0 Z0\nG1 X10\nG1 Y10\nG1 X99999999999999999999999\nG1 Y0\nM2\n",
-    )
-    .unwrap();
-    let out = d.join("out.ngc");
-    let o = run(&[
-        "smooth",
-        input.to_str().unwrap(),
-        "--method",
-        "bspline",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let e = stderr(&o);
+    );
     assert!(
         e.contains("huge.ngc:5:4") && e.contains("X reaches") && e.contains("1e9"),
         "{e}"
     );
-    assert!(!out.exists());
 }
 
 /// A loop that never ends is refused once it holds more blocks than the reader may, with
@@ -263,29 +271,12 @@ fn a_huge_coordinate_is_bad_input_naming_its_word() {
 #[test]
 #[ignore = "runs a loop to the reader's limit: release only (CI)"]
 fn an_endless_loop_is_refused_within_the_readers_limit() {
-    let d = tmpdir("loop");
-    let input = d.join("loop.ngc");
-    std::fs::write(
-        &input,
+    let e = refused(
+        &tmpdir("loop"),
+        "loop.ngc",
         "G21 G90 F600\nG0 X0 Y0 Z0\no100 while [1]\nG1 X1\nG1 X0\no100 endwhile\nM2\n",
-    )
-    .unwrap();
-    let out = d.join("out.ngc");
-    let o = run(&[
-        "smooth",
-        input.to_str().unwrap(),
-        "--method",
-        "bspline",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("moves and events held at once"),
-        "{}",
-        stderr(&o)
     );
-    assert!(!out.exists());
+    assert!(e.contains("moves and events held at once"), "{e}");
 }
 
 /// A program that moves before any G20/G21 is read in `--units` (default mm) and says
