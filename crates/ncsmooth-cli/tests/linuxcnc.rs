@@ -37,6 +37,7 @@ const FILES: &[&str] = &[
     "gcode/linuxcnc_blur_torus.ngc",
     "gcode/camotics_tiny_cat_outline.ngc",
     "more-gcode/linuxcnc_arcspiral.ngc",
+    "more-gcode/linuxcnc_tort.ngc",
     "linuxcnc-interp-tests/m98m99/01-basics/test.ngc",
 ];
 
