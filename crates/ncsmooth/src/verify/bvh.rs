@@ -45,13 +45,10 @@ impl Bvh {
         if prims.len() <= LINEAR_MAX_PRIMS {
             return Bvh::linear(prims);
         }
+        // Built in place: the primitives are reordered, never copied (a box costs a line's
+        // two points or an arc's stored box).
         let mut nodes = Vec::with_capacity(2 * prims.len() / LEAF_SIZE + 1);
-        let boxes: Vec<Aabb> = prims.iter().map(|p| p.bbox()).collect();
-        let mut order: Vec<(Aabb, Prim)> = boxes.into_iter().zip(prims.drain(..)).collect();
-        if !order.is_empty() {
-            build(&mut order, 0, &mut nodes);
-        }
-        let prims = order.into_iter().map(|(_, p)| p).collect();
+        build(&mut prims, 0, &mut nodes);
         Bvh { nodes, prims }
     }
 
@@ -116,11 +113,11 @@ impl Bvh {
     }
 }
 
-fn build(items: &mut [(Aabb, Prim)], offset: usize, nodes: &mut Vec<Node>) -> u32 {
+fn build(items: &mut [Prim], offset: usize, nodes: &mut Vec<Node>) -> u32 {
     let mut bbox = Aabb::EMPTY;
     let mut cbox = Aabb::EMPTY;
-    for (b, _) in items.iter() {
-        bbox = bbox.union(*b);
+    for b in items.iter().map(Prim::bbox) {
+        bbox = bbox.union(b);
         cbox.include(b.center());
     }
     let idx = nodes.len() as u32;
@@ -149,7 +146,7 @@ fn build(items: &mut [(Aabb, Prim)], offset: usize, nodes: &mut Vec<Node>) -> u3
     };
     let mid = items.len() / 2;
     items.select_nth_unstable_by(mid, |a, b| {
-        a.0.center()[axis].total_cmp(&b.0.center()[axis])
+        a.bbox().center()[axis].total_cmp(&b.bbox().center()[axis])
     });
     let (lo, hi) = items.split_at_mut(mid);
     let l = build(lo, offset, nodes);
@@ -181,7 +178,7 @@ mod tests {
                 let geom = if i % 3 == 0 {
                     let c = a + Vec3::new(0.3, 0.1, 0.0);
                     let arc = Arc::from_center(a, b, c, Vec3::Z, i % 2 == 0, 0).expect("arc");
-                    PrimGeom::Arc(PlanarArc::new(&arc))
+                    PrimGeom::Arc(Box::new(PlanarArc::new(&arc)))
                 } else {
                     PrimGeom::Line(Line::new(a, b))
                 };

@@ -29,6 +29,8 @@
 //! The returned values are therefore within `accuracy` of the true maxima (flattening of
 //! each side `accuracy / 4`, branch-and-bound slack `accuracy / 2`). Cost: O((n + m) log m)
 //! queries for paths that follow each other, each query O(log n) with the sequential hint.
+//! Memory: each side's primitives once (64 bytes a line), side (a) measured before the
+//! output's primitives become the index of side (b).
 
 use super::bvh::{Bvh, Hit};
 use super::prim::{push_prims, Prim, PrimGeom};
@@ -197,12 +199,23 @@ fn measure(
         return (dev, 0);
     }
 
-    // (b) programmed vertices to the output (a few vertices are scanned against every
-    // output primitive: a tree would cost more to build than it saves).
+    // (a) output points to the programmed path.
+    let prog_bvh = Bvh::new(prog_prims);
+    let (best, best_at, best_src, queries) =
+        output_to_programmed(&out_prims, &prog_bvh, slack, dev.output_at);
+    drop(prog_bvh);
+    dev.output_to_programmed_mm = best;
+    dev.output_at = best_at;
+    dev.output_line = output[best_src as usize].1;
+
+    // (b) programmed vertices to the output, whose primitives the index now takes over
+    // (held once: the output of a smoothing method is tens of millions of them). A few
+    // vertices are scanned against every output primitive: a tree would cost more to
+    // build than it saves.
     let out_bvh = if programmed.len() < FEW_VERTICES {
-        Bvh::linear(out_prims.clone())
+        Bvh::linear(out_prims)
     } else {
-        Bvh::new(out_prims.clone())
+        Bvh::new(out_prims)
     };
     for_each_vertex_distance(&out_bvh, programmed, |p, line, d| {
         if let Some(v) = vertex_distances.as_deref_mut() {
@@ -214,15 +227,24 @@ fn measure(
             dev.vertex_line = line;
         }
     });
+    (dev, queries)
+}
 
-    // (a) output points to the programmed path.
-    let prog_bvh = Bvh::new(prog_prims);
-    let mut q = Query::new(&prog_bvh);
+/// Side (a) by branch and bound (see the module doc): the largest distance from the
+/// primitives of the output to those indexed by `prog`, within `slack`, where it occurs
+/// (starting from `first`), the index of its output move, and the queries made.
+fn output_to_programmed(
+    out_prims: &[Prim],
+    prog: &Bvh,
+    slack: f64,
+    first: Vec3,
+) -> (f64, Vec3, u32, usize) {
+    let mut q = Query::new(prog);
     let mut best = 0.0_f64;
-    let mut best_at = dev.output_at;
+    let mut best_at = first;
     let mut best_src = 0u32;
     let mut stack: Vec<Piece> = Vec::with_capacity(64);
-    for prim in &out_prims {
+    for prim in out_prims {
         let len = prim.length();
         let p0 = prim.eval(0.0);
         let p1 = prim.eval(1.0);
@@ -246,7 +268,7 @@ fn measure(
             h1,
         });
         while let Some(pc) = stack.pop() {
-            let (ub, at) = upper_bound(prim, &pc, len, &prog_bvh.prims);
+            let (ub, at) = upper_bound(prim, &pc, len, &prog.prims);
             if ub <= best + slack {
                 continue;
             }
@@ -284,10 +306,7 @@ fn measure(
             });
         }
     }
-    dev.output_to_programmed_mm = best;
-    dev.output_at = best_at;
-    dev.output_line = output[best_src as usize].1;
-    (dev, q.count)
+    (best, best_at, best_src, q.count)
 }
 
 /// A parameter interval of an output primitive with its end distances and nearest
