@@ -186,6 +186,12 @@ pub struct ParseStats {
     pub untracked_first: Option<(u32, String)>,
     /// Warnings, in source order.
     pub warnings: Vec<Warning>,
+    /// Lines whose motion a rewrite may replace ([`source::flags::REPLACEABLE`]: executed
+    /// once at the top level, nothing but motion words); the others are written verbatim.
+    pub replaceable_lines: usize,
+    /// Bit mask of the axes (X Y Z, then the extra axes) the program establishes on some
+    /// line: an axis never established is never written.
+    pub axes_known: u16,
 }
 
 /// A parsed program.

@@ -4,6 +4,7 @@
 //! the program.
 
 use ncsmooth::path::Block;
+use ncsmooth_gcode::source::flags;
 use ncsmooth_gcode::{parse_bytes, BlockReader, MachineModel, ParseError, ParseOptions};
 use std::path::{Path, PathBuf};
 
@@ -92,6 +93,12 @@ fn check_same(path: &Path, opts: &ParseOptions) {
                 }
                 assert_eq!(p.toolpath.extra_axes_mask, *mask, "{name}");
                 assert_eq!(p.toolpath.units, *units, "{name}");
+                // The counts kept as the program is read are those of its source map.
+                let lines = &p.source.lines;
+                let replaceable = lines.iter().filter(|l| l.has(flags::REPLACEABLE)).count();
+                assert_eq!(p.stats.replaceable_lines, replaceable, "{name}");
+                let known = lines.iter().fold(0u16, |m, l| m | l.state.known);
+                assert_eq!(p.stats.axes_known, known, "{name}");
                 let mut want = p.stats.clone();
                 assert_eq!(
                     want.warnings.len(),

@@ -618,6 +618,14 @@ impl<'a> Interp<'a> {
                 }
             }
         }
+        if first_time {
+            self.stats.axes_known |= self.f.known;
+        }
+        if replaceable {
+            self.stats.replaceable_lines += 1;
+            self.m.last_g5_replaceable |=
+                self.m.last_g5.is_some_and(|k| k >= self.line_first_block);
+        }
         if self.map.lines.is_empty() {
             return;
         }
@@ -683,6 +691,7 @@ impl<'a> Interp<'a> {
 
     /// Pins every move and clears every replaceable mark (a main program ended by `M99`).
     fn pin_all(&mut self) {
+        self.stats.replaceable_lines = 0;
         for info in &mut self.map.lines {
             info.flags &= !flags::REPLACEABLE;
         }

@@ -63,6 +63,9 @@ pub(crate) struct Modal {
     /// Index in the toolpath's blocks of the last G5 move, whose `P Q` a G5 without `I J`
     /// reuses.
     pub last_g5: Option<usize>,
+    /// The line of [`Self::last_g5`] was counted replaceable (a later `G5` without `I J`
+    /// pins it, and takes it off the count).
+    pub last_g5_replaceable: bool,
     /// Returned value of the last subroutine (`#<_value>`), and whether there was one.
     pub value: f64,
     pub value_returned: bool,
@@ -93,6 +96,7 @@ impl Default for Modal {
             cycle: Default::default(),
             nurbs: None,
             last_g5: None,
+            last_g5_replaceable: false,
             value: 0.0,
             value_returned: false,
             path: crate::source::PathMode::Unset,

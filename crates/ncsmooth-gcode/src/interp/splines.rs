@@ -222,6 +222,7 @@ impl Interp<'_> {
         });
         if code10 == 50 {
             self.m.last_g5 = Some(self.tp.blocks.len());
+            self.m.last_g5_replaceable = false;
         }
         self.tp.push_move(mv);
         Ok(())
@@ -230,6 +231,9 @@ impl Interp<'_> {
     /// Pins the last G5 move (a G5 without I J depends on its P Q).
     fn pin_last_g5(&mut self) {
         let Some(k) = self.m.last_g5 else { return };
+        if std::mem::take(&mut self.m.last_g5_replaceable) {
+            self.stats.replaceable_lines -= 1;
+        }
         if let Some(Block::Move(mv)) = self.tp.blocks.get_mut(k) {
             mv.pinned = true;
             if let Some(info) = (mv.line as usize)
