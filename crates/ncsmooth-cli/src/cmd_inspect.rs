@@ -3,8 +3,11 @@
 use crate::{io, load, Ui};
 use anyhow::Result;
 use clap::Args;
-use ncsmooth::stats::PathStats;
+use ncsmooth::stats::{PathStats, PathStatsBuilder};
+use ncsmooth_gcode::stream::MAX_KEPT_WARNINGS;
+use ncsmooth_gcode::{BlockReader, ParseStats};
 use serde::Serialize;
+use std::path::Path;
 
 /// Arguments of `inspect`.
 #[derive(Args, Debug)]
@@ -43,8 +46,10 @@ pub struct InspectReport {
     /// Lines whose motion smoothing may replace (executed once at the top level, nothing
     /// but motion words); every other line is written back verbatim.
     pub replaceable_lines: usize,
-    /// Parser warnings.
+    /// Parser warnings (the first [`MAX_KEPT_WARNINGS`]).
     pub warnings: Vec<String>,
+    /// Warnings beyond those listed, counted only.
+    pub warnings_not_listed: usize,
 }
 
 /// Motion counts by programmed code.
@@ -62,7 +67,46 @@ pub struct MovesByCode {
 
 /// Builds the report of a parsed program.
 pub fn report(name: &str, p: &ncsmooth_gcode::Program) -> InspectReport {
-    let s = &p.stats;
+    report_of(name, &p.stats, PathStats::of(&p.toolpath), 0)
+}
+
+/// The report of the file at `path` (named `name`), read block by block
+/// ([`BlockReader`]): memory does not grow with the file.
+pub fn report_streamed(path: &Path, name: &str) -> Result<InspectReport> {
+    let opts = crate::parse_options();
+    let reported = |e: ncsmooth_gcode::ParseError| -> anyhow::Error {
+        crate::diag::report_parse_error_at_line(&e, path);
+        e.into()
+    };
+    let mut reader = BlockReader::open(path, name, opts).map_err(reported)?;
+    let mut stats = PathStatsBuilder::new();
+    let mut blocks = Vec::new();
+    loop {
+        let more = reader
+            .read_blocks(&mut blocks, READ_BATCH_BLOCKS)
+            .map_err(reported)?;
+        for b in blocks.drain(..) {
+            stats.push(&b);
+        }
+        if !more {
+            break;
+        }
+    }
+    Ok(report_of(
+        name,
+        reader.stats(),
+        stats.finish(),
+        reader.warnings_dropped(),
+    ))
+}
+
+/// Blocks `inspect` asks the reader for at a time.
+const READ_BATCH_BLOCKS: usize = 4096;
+
+/// The report from the reader's counts and the path's statistics; at most
+/// [`MAX_KEPT_WARNINGS`] warnings are listed, the others counted.
+fn report_of(name: &str, s: &ParseStats, path: PathStats, dropped: usize) -> InspectReport {
+    let kept = s.warnings.len().min(MAX_KEPT_WARNINGS);
     InspectReport {
         file: name.to_string(),
         bytes: s.bytes,
@@ -75,28 +119,21 @@ pub fn report(name: &str, p: &ncsmooth_gcode::Program) -> InspectReport {
             g2: s.g2,
             g3: s.g3,
         },
-        path: PathStats::of(&p.toolpath),
+        path,
         untracked_motions: s.untracked,
         first_untracked: s
             .untracked_first
             .as_ref()
             .map(|(line, why)| format!("line {line}: {why}")),
-        axes_never_known: {
-            let known = p.source.lines.iter().fold(0u16, |m, l| m | l.state.known);
-            ['X', 'Y', 'Z']
-                .into_iter()
-                .enumerate()
-                .filter(|(i, _)| known & (1 << i) == 0)
-                .map(|(_, c)| c)
-                .collect()
-        },
-        replaceable_lines: p
-            .source
-            .lines
-            .iter()
-            .filter(|l| l.has(ncsmooth_gcode::source::flags::REPLACEABLE))
-            .count(),
-        warnings: s.warnings.iter().map(|w| w.to_string()).collect(),
+        axes_never_known: ['X', 'Y', 'Z']
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| s.axes_known & (1 << i) == 0)
+            .map(|(_, c)| c)
+            .collect(),
+        replaceable_lines: s.replaceable_lines,
+        warnings: s.warnings[..kept].iter().map(|w| w.to_string()).collect(),
+        warnings_not_listed: s.warnings.len() - kept + dropped,
     }
 }
 
@@ -161,21 +198,27 @@ pub fn render_text(r: &InspectReport) -> String {
         );
     }
     if !r.warnings.is_empty() {
-        let _ = writeln!(o, "warnings: {}", r.warnings.len());
+        let total = r.warnings.len() + r.warnings_not_listed;
+        let _ = writeln!(o, "warnings: {total}");
         for w in r.warnings.iter().take(20) {
             let _ = writeln!(o, "  {w}");
         }
-        if r.warnings.len() > 20 {
-            let _ = writeln!(o, "  ... {} more", r.warnings.len() - 20);
+        if total > 20 {
+            let _ = writeln!(o, "  ... {} more", total - 20);
         }
     }
     o
 }
 
-/// Runs `inspect`.
+/// Runs `inspect`: a file is read block by block, in memory that does not grow with it;
+/// stdin is read whole.
 pub fn run(a: InspectArgs, _ui: Ui) -> Result<()> {
-    let p = load(&a.file)?.program;
-    let r = report(io::display_name(&a.file), &p);
+    let name = io::display_name(&a.file);
+    let r = if a.file == "-" {
+        report(name, &load(&a.file)?.program)
+    } else {
+        report_streamed(Path::new(&a.file), name)?
+    };
     if a.json {
         io::print_stdout((serde_json::to_string_pretty(&r)? + "\n").as_bytes())
     } else {

@@ -429,3 +429,103 @@ fn an_empty_program_is_written_as_it_is_with_a_warning() {
         assert!(std::fs::read_to_string(&out).unwrap().starts_with(body));
     }
 }
+
+/// `inspect` reads a file block by block: a program of two million moves (40 MB) is
+/// inspected under a 128 MB address-space limit (it held 717 MB, and a 200 MB file
+/// 6.7 GB), and its figures are the ones computed here: counts, the feed length, the
+/// extremes exactly and the percentiles within half a bin (relative 2^-17) once there are
+/// more lengths than are kept exactly.
+#[test]
+#[ignore = "writes and inspects a 40 MB program: release only (CI)"]
+fn inspect_reads_a_file_of_any_size_in_bounded_memory() {
+    let dir = tmpdir("inspect-big");
+    let input = dir.join("zigzag.ngc");
+    let n = 2_000_000usize;
+    let mut text = String::from("G21 G90\nG0 X0 Y0 Z0\nG1 F600\n");
+    let mut lengths = Vec::with_capacity(n);
+    let (mut x, mut y) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        // Steps of 0.010 to 0.016 mm in X (written to the micrometre), zigzagging in Y.
+        let nx = ((x + 0.01 + 0.001 * (i % 7) as f64) * 1000.0).round() / 1000.0;
+        let ny = if i % 2 == 0 { 0.01 } else { 0.0 };
+        lengths.push(((nx - x).powi(2) + (ny - y).powi(2)).sqrt());
+        text += &format!("G1 X{nx:.3} Y{ny:.3}\n");
+        (x, y) = (nx, ny);
+    }
+    text += "M2\n";
+    std::fs::write(&input, &text).unwrap();
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 131072 && exec '{}' inspect '{}' --json",
+            env!("CARGO_BIN_EXE_ncsmooth"),
+            input.display()
+        ))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["moves_by_code"]["g1"], n);
+    assert_eq!(r["path"]["feed_lines"], n);
+    assert_eq!(r["replaceable_lines"], n + 1, "{r}");
+    let total: f64 = lengths.iter().sum();
+    let got = r["path"]["feed_length_mm"].as_f64().unwrap();
+    assert!((got - total).abs() <= 1e-9 * total, "{got} vs {total}");
+    lengths.sort_by(f64::total_cmp);
+    let l = &r["path"]["feed_segment_length_mm"];
+    let close = |a: f64, b: f64, rel: f64| (a - b).abs() <= rel * b;
+    assert!(close(l["min"].as_f64().unwrap(), lengths[0], 1e-12), "{l}");
+    assert!(
+        close(l["max"].as_f64().unwrap(), lengths[n - 1], 1e-12),
+        "{l}"
+    );
+    for (key, q) in [("p10", 0.1), ("median", 0.5), ("p90", 0.9)] {
+        let exact = lengths[((n - 1) as f64 * q).round() as usize];
+        let got = l[key].as_f64().unwrap();
+        assert!(
+            close(got, exact, 2f64.powi(-17) * 1.0001),
+            "{key}: {got} vs {exact}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `inspect` of a file (read block by block) says what `inspect -` of the same bytes
+/// (read whole) says, for every real program of ../shared/data.
+#[test]
+#[ignore = "inspects every real program twice: release only (CI)"]
+fn inspect_streamed_is_inspect_whole() {
+    let Some(data) = shared() else {
+        println!("SKIP: ../shared/data not found");
+        return;
+    };
+    let mut n = 0;
+    for sub in ["gcode", "more-gcode", "profiles"] {
+        let Ok(rd) = std::fs::read_dir(data.join(sub)) else {
+            continue;
+        };
+        for f in rd.flatten().map(|e| e.path()) {
+            if f.extension()
+                .is_some_and(|e| e == "md" || e == "txt" || e == "json")
+            {
+                continue;
+            }
+            let file = run(&["inspect", f.to_str().unwrap(), "--json"]);
+            let whole = bin()
+                .args(["inspect", "-", "--json"])
+                .stdin(std::fs::File::open(&f).unwrap())
+                .output()
+                .unwrap();
+            assert_eq!(file.status.code(), whole.status.code(), "{}", f.display());
+            if !file.status.success() {
+                continue;
+            }
+            let mut a: serde_json::Value = serde_json::from_slice(&file.stdout).unwrap();
+            let b: serde_json::Value = serde_json::from_slice(&whole.stdout).unwrap();
+            a["file"] = b["file"].clone();
+            assert_eq!(a, b, "{}", f.display());
+            n += 1;
+        }
+    }
+    assert!(n >= 10, "{n} programs");
+}
