@@ -5,27 +5,11 @@
 //! here, not by the crate's own reader alone.
 
 use ncsmooth::geom::{Flatten, ParamCurve, Vec3};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ncsmooth"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ncsmooth-reading-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{bin, run, shared_data, stderr, tmpdir};
 
 /// Writes `body` to `dir/name`, runs `smooth` on it, and asserts exit 2 with no output
 /// written; the stderr text.
@@ -47,11 +31,6 @@ fn refused(dir: &Path, name: &str, body: &str) -> String {
     assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
     assert!(!out.exists(), "{name}");
     stderr(&o)
-}
-
-fn shared() -> Option<PathBuf> {
-    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    d.join("gcode").is_dir().then_some(d)
 }
 
 /// Smooths `input` with `args` into `dir/name`, asserting exit 0; the written text.
@@ -204,7 +183,7 @@ fn a_run_before_a_verbatim_full_circle_ends_on_the_programs_digits() {
 #[test]
 #[ignore = "smooths a real file twice: release only (CI)"]
 fn rapids_start_where_the_program_has_them() {
-    let Some(shared) = shared() else {
+    let Some(shared) = shared_data() else {
         println!("SKIP: ../shared/data not found");
         return;
     };
@@ -233,7 +212,7 @@ fn rapids_start_where_the_program_has_them() {
 #[test]
 #[ignore = "smooths real files with every method: release only (CI)"]
 fn camotics_botomata_and_linuxcnc_tort_smooth() {
-    let Some(shared) = shared() else {
+    let Some(shared) = shared_data() else {
         println!("SKIP: ../shared/data not found");
         return;
     };
@@ -321,7 +300,7 @@ fn a_program_without_units_says_how_it_was_read() {
 /// its window for the 1e9 mm/s feed no move reaches).
 #[test]
 fn raising_every_limit_never_slows_the_crown() {
-    let Some(shared) = shared() else {
+    let Some(shared) = shared_data() else {
         println!("SKIP: ../shared/data not found");
         return;
     };
@@ -495,7 +474,7 @@ fn inspect_reads_a_file_of_any_size_in_bounded_memory() {
 #[test]
 #[ignore = "inspects every real program twice: release only (CI)"]
 fn inspect_streamed_is_inspect_whole() {
-    let Some(data) = shared() else {
+    let Some(data) = shared_data() else {
         println!("SKIP: ../shared/data not found");
         return;
     };
