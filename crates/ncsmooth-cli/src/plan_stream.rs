@@ -140,13 +140,18 @@ impl<'o> StreamedInput<'o> {
     }
 
     /// The options the plan runs with: the path's top speed when the whole program was
-    /// read ahead (a later move could be faster than any of the first), and in jerk mode
+    /// read ahead, else the limits' (a later move could be faster than any of the first),
+    /// stated so that the report says what the plan was sized for; and in jerk mode
     /// without a split the fastest for the first blocks.
     pub fn tuned(&self, popts: &PlanOptions) -> PlanOptions {
         let mut o = popts.clone();
         let prefix = self.prefix_toolpath();
-        if !self.more && o.top_speed_mm_s.is_none() {
-            o.top_speed_mm_s = Some(o.top_speed_of(&prefix));
+        if o.top_speed_mm_s.is_none() {
+            o.top_speed_mm_s = Some(if self.more {
+                o.top_speed()
+            } else {
+                o.top_speed_of(&prefix)
+            });
         }
         if o.jerk_mm_s3.is_some() && o.jerk_split.is_none() {
             o.jerk_split = Some(fastest_split(&prefix, &o));
