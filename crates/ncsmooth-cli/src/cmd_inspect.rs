@@ -74,10 +74,7 @@ pub fn report(name: &str, p: &ncsmooth_gcode::Program) -> InspectReport {
 /// ([`BlockReader`]): memory does not grow with the file.
 pub fn report_streamed(path: &Path, name: &str) -> Result<InspectReport> {
     let opts = crate::parse_options();
-    let reported = |e: ncsmooth_gcode::ParseError| -> anyhow::Error {
-        crate::diag::report_parse_error_at_line(&e, path);
-        e.into()
-    };
+    let reported = |e| crate::diag::reported_at_line(e, path);
     let mut reader = BlockReader::open(path, name, opts).map_err(reported)?;
     let mut stats = PathStatsBuilder::new();
     let mut blocks = Vec::new();

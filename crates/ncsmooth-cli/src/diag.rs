@@ -42,6 +42,13 @@ pub fn report_parse_error(err: &ParseError, src: &[u8]) {
     }
 }
 
+/// `e` reported on stderr with its line from `path` ([`report_parse_error_at_line`]),
+/// as the command's error.
+pub fn reported_at_line(e: ParseError, path: &std::path::Path) -> anyhow::Error {
+    report_parse_error_at_line(&e, path);
+    e.into()
+}
+
 /// As [`report_parse_error`], for a program read from `path` a part at a time: only the
 /// lines up to the error's are read again (the label spans the error's text from its
 /// column, on that line).

@@ -82,7 +82,8 @@ impl<'o> StreamedInput<'o> {
         tol_mm: f64,
         time_shape: Option<TimeLimits>,
     ) -> Result<Self> {
-        let reader = BlockReader::open(path, name, parse).map_err(|e| reported(e, path))?;
+        let reader =
+            BlockReader::open(path, name, parse).map_err(|e| diag::reported_at_line(e, path))?;
         let smoother = plan_smoother(method, tol_mm, time_shape)?;
         let mut input = StreamedInput {
             reader,
@@ -95,7 +96,7 @@ impl<'o> StreamedInput<'o> {
             let mut out = std::mem::take(&mut input.prefix);
             let pumped = input.pump(&mut out);
             input.prefix = out;
-            pumped.map_err(|e| reported(e, path))?;
+            pumped.map_err(|e| diag::reported_at_line(e, path))?;
         }
         Ok(input)
     }
@@ -178,7 +179,7 @@ impl<'o> StreamedInput<'o> {
         });
         match fed {
             Ok(()) => Ok(planned),
-            Err(FeedStop::Parse(e)) => Err(reported(e, self.path)),
+            Err(FeedStop::Parse(e)) => Err(diag::reported_at_line(e, self.path)),
             Err(FeedStop::TooLong(min_cycle_s)) => Err(io::BadInput(format!(
                 "the cycle takes at least {min_cycle_s:.3} s (the path at its speed caps), so \
                  at least {} setpoint rows at --period {:?} s, more than --max-rows {}; \
@@ -231,10 +232,4 @@ impl<'o> StreamedInput<'o> {
     pub fn report(&self) -> SmoothReport {
         self.smoother.report().clone()
     }
-}
-
-/// `e` reported on stderr with its line from `path` (read up to that line only).
-fn reported(e: ParseError, path: &Path) -> anyhow::Error {
-    diag::report_parse_error_at_line(&e, path);
-    e.into()
 }
