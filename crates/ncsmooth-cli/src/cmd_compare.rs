@@ -5,7 +5,7 @@
 //! its setpoints CSV).
 //!
 //! Per method, two results of the same smoothing code:
-//! * the **written G-code**: [`smooth_program`], exactly what `smooth --method M --tol T`
+//! * the **written G-code**: [`SmoothJob`], exactly what `smooth --method M --tol T`
 //!   writes (curves built to `tol - chord - rounding`, flattened, read back and measured);
 //! * the **setpoints**: the path `plan --method M --tol T` plans (curves built to the whole
 //!   tolerance, [`crate::cmd_plan::smooth_for_plan`]) under the same limits and default
@@ -18,10 +18,9 @@
 //! files, and exits 1 (as `smooth` and `plan` would).
 //!
 //! Integration point (issue 16): `--emit` and `--dialect` are not accepted yet; they are
-//! passed to [`smooth_program`] once its options carry them.
+//! passed to [`SmoothJob`] once its options carry them.
 
 use crate::cmd_plan::{axes, broken_limits, check_period, smooth_for_plan, PlanRunReport};
-use crate::cmd_smooth::smooth_program;
 use crate::io::{self, OutputFile};
 use crate::report::{self, GcodeSummary, MethodView, PageView, PlotData};
 use crate::{cmd_inspect, load, progress, Ui};
@@ -29,8 +28,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::interp::{execute_into, InterpOptions, SetpointWriter};
-use ncsmooth::smooth::{Method, SmoothOptions};
+use ncsmooth::smooth::Method;
 use ncsmooth::verify::{Continuity, Deviation};
+use ncsmooth_gcode::SmoothJob;
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -164,19 +164,11 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
     let t0 = Instant::now();
     let name = m.name();
     pb.set_message(format!("{name}: smoothing, writing and verifying G-code"));
-    let out = smooth_program(
-        job.name,
-        job.src,
-        job.program,
-        SmoothOptions {
-            method: m,
-            ..Default::default()
-        },
-        crate::cmd_smooth::WriteSettings {
-            decimals: DECIMALS,
-            ..crate::cmd_smooth::WriteSettings::new(job.tol)
-        },
-    )?;
+    let out = SmoothJob::new(m, job.tol)
+        .with_decimals(DECIMALS)
+        .with_read_options(crate::parse_options().clone())
+        .run(job.name, job.src, job.program)
+        .map_err(crate::cmd_smooth::job_error)?;
     let gfile = format!("{}_{name}.ngc", job.stem);
     let mut gout = OutputFile::create(&job.out.join(&gfile))?;
     gout.write_all(&out.gcode)

@@ -8,6 +8,9 @@
 //! says why in its commit. Ignored in debug builds (a minute in release); CI runs it in
 //! release. Skips with a message when `../shared` is absent.
 
+mod common;
+
+use common::{fnv1a, without_header};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -16,38 +19,8 @@ const METHODS: [&str; 5] = ["none", "bspline", "arc", "nurbs", "trig"];
 /// The plan settings of the pinned setpoints (issue 17's trapezoid setting).
 const PLAN_ARGS: [&str; 6] = ["--tol", "0.01", "--feed", "50", "--acc", "500"];
 
-fn shared() -> Option<PathBuf> {
-    let base = std::env::var_os("NCSMOOTH_SHARED_DATA").map_or_else(
-        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
-        PathBuf::from,
-    );
-    base.join("gcode").is_dir().then_some(base)
-}
-
 fn golden_file() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/outputs.txt")
-}
-
-/// 64-bit FNV-1a.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
-/// The G-code without its trailing `; ` header lines.
-fn without_header(text: &[u8]) -> &[u8] {
-    let mut end = text.len();
-    loop {
-        let body = &text[..end];
-        let body = body.strip_suffix(b"\n").unwrap_or(body);
-        let body = body.strip_suffix(b"\r").unwrap_or(body);
-        let start = body.iter().rposition(|&c| c == b'\n').map_or(0, |i| i + 1);
-        if end == 0 || !body[start..].starts_with(b"; ") {
-            return &text[..end];
-        }
-        end = start;
-    }
 }
 
 fn run(args: &[&str]) -> bool {
@@ -133,7 +106,7 @@ fn outputs(data: &Path, dir: &Path) -> BTreeMap<String, String> {
 #[test]
 #[ignore = "a minute in release; CI runs it with --release --ignored"]
 fn outputs_equal_the_golden_files() {
-    let Some(data) = shared() else {
+    let Some(data) = common::shared_data() else {
         eprintln!("SKIP outputs_equal_the_golden_files: ../shared/data not found");
         return;
     };

@@ -56,6 +56,7 @@ pub mod error;
 pub mod executed;
 pub mod expr;
 pub mod interp;
+mod job;
 pub mod lexer;
 pub mod rewrite;
 pub mod source;
@@ -69,6 +70,9 @@ pub use canon::Canon;
 pub use dialect::Dialect;
 pub use error::{ParseError, ParseErrorKind, Warning};
 pub use interp::frames::MachineModel;
+pub use job::{
+    BlendReport, BlockReport, EmitStyle, JobError, SmoothJob, SmoothRunReport, Smoothed, Timings,
+};
 pub use ncsmooth::path::Units;
 pub use rewrite::{rewrite, RewriteOptions};
 pub use source::SourceMap;

@@ -11,10 +11,10 @@ pub mod series;
 pub mod svg;
 
 use crate::cmd_plan::PlanRunReport;
-use crate::cmd_smooth::SmoothRunReport;
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::path::Toolpath;
 use ncsmooth::verify::{continuity, deviation_with_vertex_distances, Continuity, Deviation};
+use ncsmooth_gcode::SmoothRunReport;
 use serde::Serialize;
 use std::fmt::Write;
 use svg::esc;

@@ -37,3 +37,25 @@ pub fn shared_data() -> Option<PathBuf> {
     );
     base.join("gcode").is_dir().then_some(base)
 }
+
+/// 64-bit FNV-1a, the hash of the pinned outputs (`tests/golden/outputs.txt`).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// The G-code without its trailing `; ` header lines.
+pub fn without_header(text: &[u8]) -> &[u8] {
+    let mut end = text.len();
+    loop {
+        let body = &text[..end];
+        let body = body.strip_suffix(b"\n").unwrap_or(body);
+        let body = body.strip_suffix(b"\r").unwrap_or(body);
+        let start = body.iter().rposition(|&c| c == b'\n').map_or(0, |i| i + 1);
+        if end == 0 || !body[start..].starts_with(b"; ") {
+            return &text[..end];
+        }
+        end = start;
+    }
+}

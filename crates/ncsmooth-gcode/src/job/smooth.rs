@@ -1,0 +1,549 @@
+//! The smoothing pipeline: budget, curves, rewrite, read-back, the model of the
+//! controller's executed path, and the report.
+
+use super::policy::*;
+use super::report::{BlendReport, BlockReport, SmoothRunReport, Timings};
+use super::{EmitStyle, JobError, SmoothJob, Smoothed};
+use crate::budget::{read_back_with, read_written_with, Budget};
+use crate::executed::Executed;
+use crate::rewrite::{Blend, BlockFloor, CornerBlend, Emit};
+use crate::{Program, RewriteOptions};
+use ncsmooth::smooth::band_fit::BandFitOptions;
+use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
+use ncsmooth::smooth::{smooth, Method, SmoothOptions, Smoothed as Curves};
+use ncsmooth::verify::{continuity, Continuity, Deviation};
+use ncsmooth::Toolpath;
+use std::time::Instant;
+
+impl SmoothJob {
+    /// Parses `src` (named `name` in errors and the header) with [`SmoothJob::read`] and
+    /// runs the job on it ([`SmoothJob::run`]); the parse time is in the report.
+    pub fn run_bytes(&self, name: &str, src: &[u8]) -> Result<Smoothed, JobError> {
+        let t0 = Instant::now();
+        let program = crate::parse_bytes(src, name, &self.read)?;
+        let parse_s = t0.elapsed().as_secs_f64();
+        let mut out = self.run(name, src, &program)?;
+        out.report.timings.parse_s = parse_s;
+        Ok(out)
+    }
+
+    /// Smooths, writes and verifies `program`, parsed from `src` with [`SmoothJob::read`].
+    /// An `Ok` may still be outside the tolerance: see [`Smoothed::verified`].
+    pub fn run(&self, name: &str, src: &[u8], program: &Program) -> Result<Smoothed, JobError> {
+        // For LinuxCNC's lines the curves first get what its modelled blending leaves, less
+        // what the model found over tol in a first build; where that is not confirmed either,
+        // the program is built as it was before the model, each part paid in full.
+        let compress = self.compresses();
+        let modelled = self.dialect.blends()
+            && matches!(self.emit, None | Some(EmitStyle::Lines))
+            && !compress
+            && !matches!(self.smooth.trig.corner, CornerStyle::Loop { .. });
+        if modelled {
+            let mut less_mm = 0.0;
+            // The first build evens out the blocks for LinuxCNC's blends; where the model
+            // finds that over tol, the same budget is tried with the greedy blocks.
+            let evened = [true].into_iter().chain(std::iter::repeat(false));
+            for (k, even_out) in evened.take(EXECUTED_BUILDS + 1).enumerate() {
+                let rule = BudgetRule::Executed { less_mm, even_out };
+                // A build the budget leaves no room for falls back to paying each part.
+                let Ok(out) = self.run_with(name, src, program, rule) else {
+                    break;
+                };
+                if out.report.within_tol {
+                    return Ok(out);
+                }
+                if k == 0 {
+                    continue;
+                }
+                let over = out.report.blend.map_or(f64::NAN, |b| b.executed_model_mm) - self.tol_mm;
+                if !(over > 0.0 && over < self.tol_mm * EXECUTED_MARGIN_SHARE * 10.0) {
+                    break;
+                }
+                less_mm += over + self.tol_mm * EXECUTED_MARGIN_SHARE;
+            }
+        }
+        // Paid in full, LinuxCNC's chord and `P` take their shares for that budget (also
+        // where the model does not apply: loops, the other emitters).
+        if self.dialect.blends() && !compress {
+            let tol = self.tol_mm;
+            let job = SmoothJob {
+                chord_mm: self.chord_mm.or(Some(tol * SUM_CHORD_SHARE)),
+                g64_p_mm: self.g64_p_mm.or(Some(tol * SUM_BLEND_SHARE)),
+                ..self.clone()
+            };
+            return job.run_with(name, src, program, BudgetRule::Sum);
+        }
+        self.run_with(name, src, program, BudgetRule::Sum)
+    }
+
+    /// `Method::None` with an emitter re-writes the program's own lines within the chord:
+    /// no curves are built, so the chord may take what blending and rounding leave.
+    fn compresses(&self) -> bool {
+        self.smooth.method == Method::None && self.emit.is_some()
+    }
+
+    fn run_with(
+        &self,
+        name: &str,
+        src: &[u8],
+        program: &Program,
+        rule: BudgetRule,
+    ) -> Result<Smoothed, JobError> {
+        let shares = Shares::of(self, program, rule)?;
+        let (opts, loop_size) = self.curve_options(&shares)?;
+        let mut t = Timings::default();
+        let t0 = Instant::now();
+        let curves =
+            smooth(&program.toolpath, &opts).map_err(|e| JobError::BadInput(e.to_string()))?;
+        t.smooth_s = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let emit = match (loop_size.is_some(), self.emit, self.smooth.method) {
+            (true, _, _) | (false, None, Method::None) => EmitStyle::Native,
+            (false, None, _) => EmitStyle::Lines,
+            (false, Some(e), _) => e,
+        };
+        let wopts = self.rewrite_options(name, &shares, rule, emit);
+        let write = |tp: &Toolpath| {
+            crate::rewrite(src, program, tp, &wopts).map_err(|e| JobError::Write(e.to_string()))
+        };
+        let gcode = write(&curves.toolpath)?;
+        t.write_s = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let looped = match loop_size {
+            Some(size) => Some((size, write(&without_loops(&curves.toolpath))?)),
+            None => None,
+        };
+        let checked = self.check(name, program, &curves, &gcode, &shares, looped)?;
+        t.verify_s = t0.elapsed().as_secs_f64();
+        let report = self.report(
+            name, src, program, &curves, &gcode, &shares, emit, checked, t,
+        );
+        let loop_size_mm = match self.smooth.trig.corner {
+            CornerStyle::Loop { loop_size_mm } if self.smooth.method == Method::Trig => {
+                Some(loop_size_mm)
+            }
+            _ => None,
+        };
+        Ok(Smoothed {
+            gcode,
+            report,
+            loop_size_mm,
+        })
+    }
+
+    /// The method's options for the curve tolerance, and the loop size the loops are
+    /// built to in loop mode.
+    fn curve_options(&self, s: &Shares) -> Result<(SmoothOptions, Option<f64>), JobError> {
+        let mut opts = SmoothOptions {
+            tol_mm: s.curve_tol,
+            ..self.smooth.clone()
+        };
+        if s.blend.is_some() {
+            // LinuxCNC's blends follow the written curve's own radius: the run fit is run to
+            // its minimum (ncsmooth::smooth::band_fit::BandFitOptions::converged).
+            let converged = BandFitOptions::converged();
+            opts.run.fit.min_knot_span_mm = converged.min_knot_span_mm;
+            opts.run.fit.energy_settle_share = converged.energy_settle_share;
+        }
+        // Loops are built to the loop size less the rounding: flattening only cuts chords
+        // inside a loop (its excursion from the corner cannot grow), rounding moves points.
+        let loop_size = match (self.smooth.method, opts.trig.corner) {
+            (Method::Trig, CornerStyle::Loop { loop_size_mm }) => {
+                let build = loop_size_mm - s.rounding;
+                if build <= loop_size_mm * MIN_CURVE_TOL_SHARE || build.is_nan() {
+                    return Err(JobError::BadInput(format!(
+                        "--loop-size {loop_size_mm:?} mm is too small for {} decimals, \
+                         which round coordinates by up to {:.3e} mm; use more --decimals",
+                        self.decimals, s.rounding
+                    )));
+                }
+                opts.trig.corner = CornerStyle::Loop {
+                    loop_size_mm: build,
+                };
+                Some(build)
+            }
+            _ => None,
+        };
+        Ok((opts, loop_size))
+    }
+}
+
+/// The tolerance's shares for one build (lengths in mm).
+struct Shares {
+    tol: f64,
+    chord: f64,
+    rounding: f64,
+    /// LinuxCNC's `G64 P Q` of the smoothed runs.
+    blend: Option<Blend>,
+    /// LinuxCNC's `G64 P` of the program's own motion copied verbatim.
+    verbatim_blend: Option<Blend>,
+    /// `P + Q`, 0 without blending.
+    blend_mm: f64,
+    budget: Budget,
+    curve_tol: f64,
+    compress: bool,
+}
+
+impl Shares {
+    fn of(job: &SmoothJob, program: &Program, rule: BudgetRule) -> Result<Shares, JobError> {
+        let (tol, dialect, compress) = (job.tol_mm, job.dialect, job.compresses());
+        let chord = job.chord_mm.unwrap_or(if compress {
+            tol * COMPRESS_CHORD_SHARE
+        } else if dialect.block_floor_mm().is_some() {
+            tol * STEPPER_CHORD_SHARE
+        } else if dialect == crate::Dialect::LinuxCnc {
+            tol * LINUXCNC_CHORD_SHARE
+        } else {
+            tol * DEFAULT_CHORD_SHARE
+        });
+        if !(tol > 0.0 && tol <= TOL_MAX_MM) {
+            return Err(JobError::BadInput(format!(
+                "--tol must be a length in (0, {TOL_MAX_MM}] mm, got {tol}"
+            )));
+        }
+        if !(chord > 0.0 && chord < tol) {
+            return Err(JobError::BadInput(format!(
+                "--chord must be in (0, tol), got {chord}"
+            )));
+        }
+        // Inch programs are written in inches: their rounding applies where they are.
+        // `none` builds no curves, but rounding still moves its points and off-plane arcs
+        // are still flattened: the same budget applies.
+        let rounding = Budget::new(program, tol, chord, job.decimals, 0.0).rounding_mm;
+        let blend = Self::blend(job, compress)?;
+        let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
+        // The program's own rapids copied verbatim deviate by LinuxCNC's blending alone.
+        let verbatim_blend = blend.map(|_| Blend {
+            p_mm: tol * VERBATIM_BLEND_SHARE,
+            q_mm: 0.0,
+        });
+        let budget = Budget::new(program, tol, chord, job.decimals, blend_mm);
+        let curve_tol = match (rule, blend) {
+            (BudgetRule::Executed { less_mm, .. }, Some(b)) => {
+                tol - chord.max(b.p_mm) - b.q_mm - rounding - tol * EXECUTED_MARGIN_SHARE - less_mm
+            }
+            _ => budget.curve_tol_mm(),
+        };
+        // A tolerance eaten by the flattening chord and the printed decimals is an input
+        // error, not something to fail on later.
+        if (curve_tol <= tol * MIN_CURVE_TOL_SHARE && !compress)
+            || curve_tol.is_nan()
+            || curve_tol < 0.0
+        {
+            return Err(JobError::BadInput(format!(
+                "--tol {tol:?} mm leaves too little room: the flattening chord takes {chord:?} mm, \
+                 the controller's blending {blend_mm:?} mm \
+                 and {} decimals round coordinates by up to {rounding:.3e} mm; \
+                 use a larger --tol, a smaller --chord or more --decimals",
+                job.decimals
+            )));
+        }
+        Ok(Shares {
+            tol,
+            chord,
+            rounding,
+            blend,
+            verbatim_blend,
+            blend_mm,
+            budget,
+            curve_tol,
+            compress,
+        })
+    }
+
+    /// LinuxCNC blends between the written blocks: `G64 P<share of tol> Q0` keeps its
+    /// blend arcs no tighter than the chords themselves (a blend at a chord junction
+    /// turning by `theta` has radius about `8 P / theta^2`, the curve `8 chord / theta^2`)
+    /// and is paid from the tolerance.
+    fn blend(job: &SmoothJob, compress: bool) -> Result<Option<Blend>, JobError> {
+        let tol = job.tol_mm;
+        let blend = job.dialect.blends().then_some(Blend {
+            p_mm: job.g64_p_mm.unwrap_or(
+                tol * if compress {
+                    COMPRESS_BLEND_SHARE
+                } else {
+                    BLEND_SHARE
+                },
+            ),
+            q_mm: job.g64_q_mm.unwrap_or(0.0),
+        });
+        if let Some(b) = blend {
+            if !(b.p_mm > 0.0 && b.p_mm < tol && b.q_mm >= 0.0 && b.q_mm < tol) {
+                return Err(JobError::BadInput(format!(
+                    "--g64-p must be in (0, tol) and --g64-q in [0, tol), got {} and {}",
+                    b.p_mm, b.q_mm
+                )));
+            }
+        }
+        Ok(blend)
+    }
+}
+
+/// What the read-back measured.
+struct Checked {
+    as_written: Toolpath,
+    dev: Deviation,
+    loops: Option<LoopCheck>,
+    /// The loops are within the size they were built to (true without loops).
+    loops_ok: bool,
+    executed: Option<Executed>,
+    continuity: Continuity,
+    input_continuity: Continuity,
+}
+
+impl SmoothJob {
+    /// How the smoothed path is written into the program for this controller.
+    fn rewrite_options(
+        &self,
+        name: &str,
+        s: &Shares,
+        rule: BudgetRule,
+        emit: EmitStyle,
+    ) -> RewriteOptions {
+        let (tol, dialect, method) = (self.tol_mm, self.dialect, self.smooth.method);
+        // A stepper controller is given no block of a step or two: the program's own G1
+        // lines between the smoothed ones go through the long-lines emitter too, where its
+        // short blocks are lifted (a copied line is never lifted).
+        let floor = dialect.block_floor_mm().is_some()
+            && matches!(emit, EmitStyle::Lines | EmitStyle::G5 | EmitStyle::Nurbs);
+        let (min_block_mm, min_block_s) = (dialect.min_block_mm(0.0), dialect.min_block_s());
+        RewriteOptions::new(self.decimals.min(crate::writer::MAX_DECIMALS), s.chord)
+            .with_header(format!(
+                "ncsmooth {} --method {} --tol {tol} --dialect {} (from {name})",
+                env!("CARGO_PKG_VERSION"),
+                method.name(),
+                dialect.name()
+            ))
+            .for_dialect(dialect, s.blend)
+            .with_verbatim_blend(s.verbatim_blend)
+            .with_blend_limits(self.acc_mm_s2, self.feed_mm_s)
+            .with_even_out(matches!(rule, BudgetRule::Executed { even_out: true, .. }))
+            .with_emit(match emit {
+                EmitStyle::Native => Emit::Native,
+                EmitStyle::Arcs => Emit::Arcs,
+                EmitStyle::Nurbs if dialect.has_nurbs() => Emit::Nurbs {
+                    min_block_mm,
+                    min_block_s,
+                },
+                EmitStyle::G5 | EmitStyle::Nurbs if dialect.has_g5() => Emit::G5 {
+                    min_block_mm,
+                    min_block_s,
+                },
+                EmitStyle::Lines | EmitStyle::G5 | EmitStyle::Nurbs => Emit::Lines {
+                    min_block_mm,
+                    min_block_s,
+                },
+            })
+            .with_rewrite_unchanged(s.compress || (floor && method != Method::None))
+            .with_block_floor(self.block_floor(s, rule, emit))
+    }
+
+    /// The shortest block written: a stepper's floor; for LinuxCNC, where the model of its
+    /// executed path checks the build and the schedule sizes the blends, a block shorter
+    /// than four `P` caps its blends at a quarter of its length, so the programmed corner
+    /// is written instead, blended within a `P` of its own. A `Q` is not modelled: no
+    /// corner then.
+    fn block_floor(&self, s: &Shares, rule: BudgetRule, emit: EmitStyle) -> Option<BlockFloor> {
+        let tol = s.tol;
+        if let Some(m) = self.dialect.block_floor_mm() {
+            return Some(BlockFloor {
+                min_block_mm: m,
+                tol_mm: tol - s.rounding - s.blend_mm,
+                corner: None,
+            });
+        }
+        match (rule, s.blend, s.verbatim_blend, self.acc_mm_s2, emit) {
+            (BudgetRule::Executed { less_mm, .. }, Some(b), Some(v), Some(_), EmitStyle::Lines)
+                if b.q_mm == 0.0 =>
+            {
+                Some(BlockFloor {
+                    min_block_mm: LINUXCNC_CORNER_FLOOR_P * b.p_mm,
+                    tol_mm: tol - s.rounding - s.blend_mm,
+                    corner: Some(CornerBlend {
+                        // The blends at raised points leave the same share to whoever
+                        // measures them from servo samples as the verbatim motion's.
+                        total_mm: tol * VERBATIM_BLEND_SHARE - s.rounding - less_mm,
+                        max_p_mm: v.p_mm,
+                    }),
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// The written text read back and measured: rounding and the reader's own arc
+    /// reconstruction are part of what the machine will run. In loop mode (`looped`: the
+    /// loop size and the same text written without the loops) the loops are measured by
+    /// their own bound, and the two-sided tolerance on the text without them.
+    fn check(
+        &self,
+        name: &str,
+        program: &Program,
+        curves: &Curves,
+        gcode: &[u8],
+        s: &Shares,
+        looped: Option<(f64, Vec<u8>)>,
+    ) -> Result<Checked, JobError> {
+        let unreadable = |e: crate::ParseError| JobError::ReadBack(e.to_string());
+        let (opts, accuracy) = (&self.read, s.tol * VERIFY_ACCURACY_SHARE);
+        let loops = looped
+            .as_ref()
+            .map(|(size, _)| check_loops(&curves.toolpath, &program.toolpath, *size));
+        let (as_written, dev) = match &looped {
+            Some((_, text)) => {
+                let (_, dev) = read_back_with(text, name, &program.toolpath, accuracy, opts)
+                    .map_err(unreadable)?;
+                (
+                    read_written_with(gcode, name, opts).map_err(unreadable)?,
+                    dev,
+                )
+            }
+            None => read_back_with(gcode, name, &program.toolpath, accuracy, opts)
+                .map_err(unreadable)?,
+        };
+        let executed = match (s.blend, looped.is_some()) {
+            (Some(b), false) => {
+                let written = crate::parse_bytes(gcode, name, opts).map_err(unreadable)?;
+                let cap = s.verbatim_blend.map_or(b.p_mm, |v| v.p_mm.max(b.p_mm));
+                Some(crate::executed::linuxcnc_executed(
+                    &written,
+                    &program.toolpath,
+                    &dev,
+                    cap,
+                    s.blend_mm,
+                    s.tol * EXECUTED_ACCURACY_SHARE,
+                ))
+            }
+            _ => None,
+        };
+        let loops_ok = match (&loops, &looped) {
+            (Some(l), Some((size, _))) => l.within(*size),
+            _ => true,
+        };
+        Ok(Checked {
+            as_written,
+            dev,
+            loops,
+            loops_ok,
+            executed,
+            continuity: continuity(&curves.toolpath),
+            input_continuity: continuity(&program.toolpath),
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn report(
+        &self,
+        name: &str,
+        src: &[u8],
+        program: &Program,
+        curves: &Curves,
+        gcode: &[u8],
+        s: &Shares,
+        emit: EmitStyle,
+        c: Checked,
+        timings: Timings,
+    ) -> SmoothRunReport {
+        let Checked {
+            as_written,
+            dev,
+            loops,
+            loops_ok,
+            executed,
+            continuity,
+            input_continuity,
+        } = c;
+        let blocks = BlockReport::of(src, &program.toolpath, gcode, &as_written, self.dialect);
+        let extra_axes_mismatch =
+            ncsmooth::verify::extra_axes_kept(&program.toolpath, &as_written, s.rounding);
+        let extrusion_along_path =
+            ncsmooth::verify::extrusion_along_path(&program.toolpath, &as_written, s.tol);
+        let within_tol = loops_ok
+            && match executed {
+                // The model of what LinuxCNC runs, where it applies, whichever the budget.
+                Some(e) => dev.within(s.tol) && e.max_mm() <= s.tol,
+                None => s.budget.holds(&dev),
+            };
+        SmoothRunReport {
+            input: name.to_string(),
+            units_assumed: program
+                .stats
+                .units_assumed
+                .map(|line| (self.read.default_units, line)),
+            tol_mm: s.tol,
+            curve_tol_mm: s.curve_tol,
+            chord_mm: s.chord,
+            rounding_mm: s.rounding,
+            dialect: self.dialect.name(),
+            emit,
+            blend: s.blend.map(|b| blend_report(b, s, &dev, executed.as_ref())),
+            blocks,
+            smoothing: curves.report.clone(),
+            within_tol,
+            deviation: dev,
+            extra_axes_mismatch,
+            extrusion_along_path,
+            loops,
+            continuity,
+            input_continuity,
+            timings,
+        }
+    }
+}
+
+/// LinuxCNC's blending bounds, and the bound on the path it executes: the model's where it
+/// applies, else the written deviation plus `P + Q` (or the verbatim motion's `P`).
+fn blend_report(b: Blend, s: &Shares, dev: &Deviation, executed: Option<&Executed>) -> BlendReport {
+    let verbatim = s.verbatim_blend;
+    BlendReport {
+        p_mm: b.p_mm,
+        q_mm: b.q_mm,
+        verbatim_p_mm: verbatim.map_or(b.p_mm, |v| v.p_mm),
+        executed_bound_mm: executed.map_or_else(
+            || (dev.max_mm() + s.blend_mm).max(verbatim.map_or(0.0, |v| v.p_mm + v.q_mm)),
+            |e| e.max_mm(),
+        ),
+        executed_model_mm: executed.map_or(f64::NAN, |e| e.max_mm()),
+        blends_modelled: executed.map_or(0, |e| e.blends_modelled),
+        blends_counted: executed.map_or(0, |e| e.blends_counted),
+    }
+}
+
+impl Smoothed {
+    /// `Ok` when the written program, read back, is within the tolerance (the model of the
+    /// controller's executed path included), its loops within their size and its extra
+    /// axes where the program has them; else the [`JobError::Verification`] saying where.
+    /// A job's own construction should always pass: an error here is a bug of ours.
+    pub fn verified(&self) -> Result<(), JobError> {
+        let r = &self.report;
+        if let (Some(l), Some(size)) = (&r.loops, self.loop_size_mm) {
+            if !l.within(size - r.rounding_mm) {
+                return Err(JobError::Verification(format!(
+                    "loops pass their corners within {:.3e} mm and reach {:.9e} mm, plus up to {:.3e} mm of rounding (loop size {size:?} mm); nothing written",
+                    l.max_corner_miss_mm, l.max_excursion_mm, r.rounding_mm
+                )));
+            }
+        }
+        if let Some(m) = r.extra_axes_mismatch {
+            return Err(JobError::Verification(format!(
+                "axis {} is at {} in the written program where the program has {} (before line {}, 0: at the end); nothing written",
+                ncsmooth::path::EXTRA_AXIS_NAMES[m.axis],
+                m.written,
+                m.program,
+                m.line
+            )));
+        }
+        if !r.within_tol {
+            let blend = r.blend.map_or(0.0, |b| b.p_mm + b.q_mm);
+            return Err(JobError::Verification(format!(
+                "deviation {:.6} mm (output to program, line {}) / {:.6} mm (vertex to output, line {}) plus {blend:?} mm of controller blending exceeds tol {:?} mm; nothing written",
+                r.deviation.output_to_programmed_mm,
+                r.deviation.output_line,
+                r.deviation.vertex_to_output_mm,
+                r.deviation.vertex_line,
+                r.tol_mm
+            )));
+        }
+        Ok(())
+    }
+}
