@@ -20,9 +20,8 @@
 //! Integration point (issue 16): `--emit` and `--dialect` are not accepted yet; they are
 //! passed to [`SmoothJob`] once its options carry them.
 
-use crate::cmd_plan::{axes, broken_limits, check_period, smooth_for_plan, PlanRunReport};
+use crate::cmd_plan::{axes, check_period, smooth_for_plan};
 use crate::io::{self, OutputFile};
-use crate::report::{self, GcodeSummary, MethodView, PageView, PlotData};
 use crate::{cmd_inspect, load, progress, Ui};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -30,7 +29,9 @@ use ncsmooth::feed::PlanOptions;
 use ncsmooth::interp::{execute_into, InterpOptions, SetpointWriter};
 use ncsmooth::smooth::Method;
 use ncsmooth::verify::{Continuity, Deviation};
+use ncsmooth_gcode::PlanRunReport;
 use ncsmooth_gcode::SmoothJob;
+use ncsmooth_report::{self as report, GcodeSummary, MethodView, PageView, PlotData};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -189,7 +190,7 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
         &smoothed.toolpath,
         &job.popts,
         &InterpOptions::default(),
-        (csv, report::series::PlotSink::default()),
+        (csv, report::PlotSink::default()),
     )?;
     let mut files = vec![gout];
     if let Some(w) = csv {
@@ -197,8 +198,9 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
     }
     pb.set_message(format!("{name}: measuring the planned path"));
     let data = PlotData::measure(&job.program.toolpath, smoothed.toolpath, sink, job.tol);
-    let mut failure =
-        broken_limits(&plan).map(|b| format!("{name}: the plan does not hold its limits: {b}"));
+    let mut failure = plan
+        .broken_limits()
+        .map(|b| format!("{name}: the plan does not hold its limits: {b}"));
     if !out.report.within_tol {
         failure = Some(format!(
             "{name}: the written G-code deviates {:.6} mm from the program (tol {} mm)",

@@ -17,8 +17,6 @@
 use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
 use crate::plan_stream::{plan_smoother, StreamedInput};
-use crate::report::series::PlotSink;
-use crate::report::{self, MethodView, PageView, PlotData};
 use crate::{io, load, progress, Ui};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
@@ -27,10 +25,11 @@ use ncsmooth::geom::{ParamCurve, ParamCurveArclen};
 use ncsmooth::interp::{
     execute_into, InterpMethod, InterpOptions, PlanError, PlanReport, SetpointSink, SetpointWriter,
 };
-use ncsmooth::path::{Move, MoveKind, Toolpath};
+use ncsmooth::path::{Move, Toolpath};
 use ncsmooth::smooth::band_time::TimeLimits;
 use ncsmooth::smooth::{Method, SmoothReport, Smoothed};
-use serde::Serialize;
+use ncsmooth_gcode::PlanRunReport;
+use ncsmooth_report::{self as report, MethodView, PageView, PlotData, PlotSink};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -60,8 +59,6 @@ const TYPICAL_ROW_BYTES: u64 = 63;
 /// Setpoint output (bytes, estimated from the lower bound on the rows) above which `plan`
 /// says on stderr, before writing, how much it is about to write.
 pub const LARGE_OUTPUT_BYTES: u64 = 1_000_000_000;
-/// Accuracy (mm) of the move lengths in the lower bound on the cycle time.
-const ESTIMATE_ACCURACY_MM: f64 = 1e-6;
 
 /// Jerk scheme names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -189,26 +186,6 @@ pub struct PlanArgs {
     pub sample_ds: f64,
 }
 
-/// The JSON report of `plan`.
-#[derive(Serialize, Debug)]
-pub struct PlanRunReport {
-    /// Input name.
-    pub input: String,
-    /// Method asked for.
-    pub method: String,
-    /// What smoothing did.
-    pub smoothing: SmoothReport,
-    /// Seconds parsing (a streamed file: opening it and reading its first blocks; the
-    /// rest is read while planning, inside the plan's stage times).
-    pub parse_s: f64,
-    /// Seconds smoothing (a streamed file: nothing apart, it is smoothed while planned).
-    pub smooth_s: f64,
-    /// Planning and interpolation.
-    pub plan: PlanReport,
-    /// Cycle time / (parse + smooth + plan + interpolate + write) time.
-    pub end_to_end_real_time_factor: f64,
-}
-
 /// Parses a per-axis value: one number for all axes or `x,y,z`.
 pub(crate) fn axes(name: &str, s: &str) -> Result<[f64; 3]> {
     let v: Vec<f64> = s
@@ -253,27 +230,6 @@ fn write_samples(out: &mut OutputFile, tp: &Toolpath, ds: f64) -> Result<()> {
     }
     w.flush()?;
     Ok(())
-}
-
-/// A lower bound on the cycle time (s) of `tp` under `popts`: every move run at its speed
-/// cap throughout, as the planner caps it (rapids at the rapid speed, feed moves at the
-/// lower of their programmed F and `--feed`). Acceleration, stops, dwells and the other
-/// limits only add time.
-fn min_cycle_time_s(tp: &Toolpath, popts: &PlanOptions) -> f64 {
-    tp.moves().map(|m| move_floor_s(m, popts)).sum()
-}
-
-/// The least time (s) move `m` takes under `popts`: its length at its speed cap (see
-/// [`min_cycle_time_s`]).
-pub(crate) fn move_floor_s(m: &Move, popts: &PlanOptions) -> f64 {
-    let cap = match m.kind {
-        MoveKind::Rapid => popts.rapid(),
-        MoveKind::Feed => m
-            .feed_mm_s
-            .filter(|f| *f > 0.0 && f.is_finite())
-            .map_or(popts.feed_mm_s, |f| f.min(popts.feed_mm_s)),
-    };
-    m.segment.arclen(ESTIMATE_ACCURACY_MM) / cap
 }
 
 /// Where `plan` takes its path from: a program held whole (smoothed at once), or a file
@@ -464,35 +420,6 @@ fn waivers(a: &PlanArgs, r: &PlanReport) -> Vec<&'static str> {
     w
 }
 
-/// The limits the measured setpoints exceed, or `None` when `r.limits_held`.
-pub(crate) fn broken_limits(r: &PlanReport) -> Option<String> {
-    if r.limits_held {
-        return None;
-    }
-    let mut out = Vec::new();
-    for x in &r.axes {
-        if !x.v_within {
-            out.push(format!(
-                "{} velocity {:.6} > {} mm/s",
-                x.axis, x.v_max_mm_s, x.v_limit_mm_s
-            ));
-        }
-        if !x.a_within {
-            out.push(format!(
-                "{} acceleration {:.6} > {} mm/s^2 at t = {:.4} s",
-                x.axis, x.a_max_mm_s2, x.a_limit_mm_s2, x.a_max_at_s
-            ));
-        }
-        if let (false, Some(j)) = (x.j_within, x.j_limit_mm_s3) {
-            out.push(format!(
-                "{} jerk {:.6} > {j} mm/s^3 at t = {:.4} s",
-                x.axis, x.j_max_mm_s3, x.j_max_at_s
-            ));
-        }
-    }
-    Some(out.join(", "))
-}
-
 /// The page of one plan ([`crate::report`]).
 fn page_html(
     run: &PlanRunReport,
@@ -543,7 +470,7 @@ fn whole_checks(
     }
     // Every row is a period of the cycle, which cannot be shorter than the path at its
     // speed caps: refuse or announce a huge output before producing any of it.
-    let min_cycle_s = min_cycle_time_s(&smoothed.toolpath, popts);
+    let min_cycle_s = popts.min_cycle_time_s(&smoothed.toolpath);
     // Truncated (not the row at t = 0 added): a margin of one row for rounding.
     let min_rows = (min_cycle_s / popts.period_s) as u64;
     if let Some(max) = a.max_rows.filter(|&max| min_rows > max) {
@@ -780,7 +707,7 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     };
     pb.finish_and_clear();
     let waived = waivers(&a, &report);
-    if let Some(broken) = broken_limits(&report) {
+    if let Some(broken) = report.broken_limits() {
         if waived.is_empty() {
             if popts.jerk_scheme == JerkScheme::Follow {
                 return Err(FollowGaveUp(format!(
@@ -899,14 +826,14 @@ mod tests {
         };
         let held = report(&popts, &InterpOptions::default());
         assert!(held.limits_held);
-        assert_eq!(broken_limits(&held), None);
+        assert_eq!(held.broken_limits(), None);
         // A report whose setpoints exceed a limit names it, and a plain run has no waiver:
         // `run` fails (exit 1, nothing committed).
         let mut broken = held.clone();
         broken.limits_held = false;
         broken.axes[1].j_within = false;
         broken.axes[0].a_within = false;
-        let msg = broken_limits(&broken).unwrap();
+        let msg = broken.broken_limits().unwrap();
         assert!(
             msg.contains("y jerk") && msg.contains("x acceleration"),
             "{msg}"

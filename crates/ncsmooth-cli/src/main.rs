@@ -19,7 +19,6 @@ mod diag;
 mod io;
 mod plan_stream;
 mod progress;
-mod report;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

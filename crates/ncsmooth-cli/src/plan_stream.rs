@@ -10,7 +10,6 @@
 //! is checked against the lower bound on the cycle time as the moves arrive (a plan that
 //! already needs more rows stops reading, and nothing is written).
 
-use crate::cmd_plan::move_floor_s;
 use crate::{diag, io};
 use anyhow::Result;
 use ncsmooth::feed::grid::IndexFeeder;
@@ -207,7 +206,7 @@ impl<'o> StreamedInput<'o> {
         let mut hand = |f: &mut IndexFeeder<'_>, blocks: &mut Vec<Block>| {
             for b in blocks.drain(..) {
                 if let Block::Move(m) = &b {
-                    floor_s += move_floor_s(m, popts);
+                    floor_s += popts.move_floor_s(m);
                     if max_cycle_s.is_some_and(|max| floor_s > max) {
                         return Err(FeedStop::TooLong(floor_s));
                     }

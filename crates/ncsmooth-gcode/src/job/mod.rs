@@ -34,7 +34,7 @@ mod policy;
 mod report;
 mod smooth;
 
-pub use report::{BlendReport, BlockReport, SmoothRunReport, Timings};
+pub use report::{BlendReport, BlockReport, PlanRunReport, SmoothRunReport, Timings};
 
 use crate::{Dialect, ParseError, ParseOptions};
 use ncsmooth::smooth::{Method, SmoothOptions};

@@ -4,6 +4,7 @@
 
 use super::EmitStyle;
 use crate::{Dialect, Units};
+use ncsmooth::interp::PlanReport;
 use ncsmooth::smooth::trig_corner::LoopCheck;
 use ncsmooth::smooth::SmoothReport;
 use ncsmooth::stats::PathStats;
@@ -174,4 +175,25 @@ impl BlockReport {
             first_long_line,
         }
     }
+}
+
+/// The JSON report of `ncsmooth plan`: the method, what smoothing did, the plan, and the
+/// time per stage.
+#[derive(Serialize, Debug)]
+pub struct PlanRunReport {
+    /// Input name.
+    pub input: String,
+    /// Method asked for.
+    pub method: String,
+    /// What smoothing did.
+    pub smoothing: SmoothReport,
+    /// Seconds parsing (a streamed file: opening it and reading its first blocks; the
+    /// rest is read while planning, inside the plan's stage times).
+    pub parse_s: f64,
+    /// Seconds smoothing (a streamed file: nothing apart, it is smoothed while planned).
+    pub smooth_s: f64,
+    /// Planning and interpolation.
+    pub plan: PlanReport,
+    /// Cycle time / (parse + smooth + plan + interpolate + write) time.
+    pub end_to_end_real_time_factor: f64,
 }

@@ -305,7 +305,32 @@ fn resolvable(
     })
 }
 
+/// Accuracy (mm) of the move lengths in [`PlanOptions::min_cycle_time_s`].
+pub const ESTIMATE_ACCURACY_MM: f64 = 1e-6;
+
 impl PlanOptions {
+    /// A lower bound on the cycle time (s) of `tp`: every move run at its speed cap
+    /// throughout, as the planner caps it (rapids at the rapid speed, feed moves at the
+    /// lower of their programmed F and [`PlanOptions::feed_mm_s`]). Acceleration, stops,
+    /// dwells and the other limits only add time.
+    pub fn min_cycle_time_s(&self, tp: &crate::path::Toolpath) -> f64 {
+        tp.moves().map(|m| self.move_floor_s(m)).sum()
+    }
+
+    /// The least time (s) move `m` takes: its length (to [`ESTIMATE_ACCURACY_MM`]) at its
+    /// speed cap (see [`PlanOptions::min_cycle_time_s`]).
+    pub fn move_floor_s(&self, m: &crate::path::Move) -> f64 {
+        use crate::geom::ParamCurveArclen;
+        let cap = match m.kind {
+            crate::path::MoveKind::Rapid => self.rapid(),
+            crate::path::MoveKind::Feed => m
+                .feed_mm_s
+                .filter(|f| *f > 0.0 && f.is_finite())
+                .map_or(self.feed_mm_s, |f| f.min(self.feed_mm_s)),
+        };
+        m.segment.arclen(ESTIMATE_ACCURACY_MM) / cap
+    }
+
     /// Checks that every limit is a positive finite number, and large enough for the
     /// setpoints at the period to show it held (see the module doc).
     pub fn validate(&self) -> Result<(), PlanOptionsError> {

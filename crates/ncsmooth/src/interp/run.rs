@@ -278,6 +278,38 @@ pub struct PlanReport {
     pub real_time_factor: f64,
 }
 
+impl PlanReport {
+    /// The limits the measured setpoints exceed, named with their figures, or `None` when
+    /// [`PlanReport::limits_held`].
+    pub fn broken_limits(&self) -> Option<String> {
+        if self.limits_held {
+            return None;
+        }
+        let mut out = Vec::new();
+        for x in &self.axes {
+            if !x.v_within {
+                out.push(format!(
+                    "{} velocity {:.6} > {} mm/s",
+                    x.axis, x.v_max_mm_s, x.v_limit_mm_s
+                ));
+            }
+            if !x.a_within {
+                out.push(format!(
+                    "{} acceleration {:.6} > {} mm/s^2 at t = {:.4} s",
+                    x.axis, x.a_max_mm_s2, x.a_limit_mm_s2, x.a_max_at_s
+                ));
+            }
+            if let (false, Some(j)) = (x.j_within, x.j_limit_mm_s3) {
+                out.push(format!(
+                    "{} jerk {:.6} > {j} mm/s^3 at t = {:.4} s",
+                    x.axis, x.j_max_mm_s3, x.j_max_at_s
+                ));
+            }
+        }
+        Some(out.join(", "))
+    }
+}
+
 /// Planned samples collected before they are sent to the emitting thread, interpolated
 /// and written (and their time is taken).
 const EMIT_BATCH: usize = 4096;

@@ -2,18 +2,23 @@
 //! SVG, inline CSS, no script, nothing fetched) with the summary table first, then the
 //! plots, the per-method details, the limits used and the files written.
 //!
-//! The plots ([`plots`]) are drawn by the small SVG module [`svg`] from data reduced while
-//! it is produced ([`series`]): a page stays under a few MB whatever the program's size
+//! The plots (`plots`) are drawn by the small SVG module `svg` from data reduced while
+//! it is produced (`series`, [`PlotSink`]): a page stays under a few MB whatever the program's size
 //! (the butterfly demo: about 0.5 MB; the shared files' pages are measured by the tests).
 
-pub mod plots;
-pub mod series;
-pub mod svg;
+#![forbid(unsafe_code)]
 
-use crate::cmd_plan::PlanRunReport;
+mod plots;
+mod series;
+mod svg;
+
+pub use plots::method_color;
+pub use series::{curvature_profile, PlotSink, MAX_BUCKETS};
+
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::path::Toolpath;
 use ncsmooth::verify::{continuity, deviation_with_vertex_distances, Continuity, Deviation};
+use ncsmooth_gcode::PlanRunReport;
 use ncsmooth_gcode::SmoothRunReport;
 use serde::Serialize;
 use std::fmt::Write;

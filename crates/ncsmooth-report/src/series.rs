@@ -158,7 +158,7 @@ pub const JERK: usize = 4;
 /// Collects the decimated feed, acceleration and jerk of the rows (see the module doc).
 #[derive(Clone, Debug)]
 pub struct PlotSink {
-    /// The decimated series ([`FEED`], [`ACC`], [`JERK`]).
+    /// The decimated series (`FEED`, `ACC`, `JERK`).
     pub series: Buckets,
     /// Last three printed rows of the current section.
     hist: Vec<(f64, [f64; 3])>,
@@ -294,7 +294,7 @@ pub fn vertex_points(
 }
 
 /// Curvature (1/mm) along the arc length (mm) of the feed moves of `tp`, as a decimated
-/// series: lines are zero, curves sampled at least [`MIN_CURVE_SAMPLES`] times (more on
+/// series: lines are zero, curves sampled at least `MIN_CURVE_SAMPLES` times (more on
 /// long curves, about `max_points` over the whole length); rapids are skipped and do not
 /// count in the arc length. The exact corners of a polyline (unbounded curvature) are not
 /// shown: see the continuity counts for them.
