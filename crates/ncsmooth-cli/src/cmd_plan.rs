@@ -544,27 +544,10 @@ pub fn run(a: PlanArgs, ui: Ui) -> Result<()> {
 }
 
 fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
-    let outputs: Vec<(&str, &Path)> = [
-        ("--path-samples", &a.path_samples),
-        ("--setpoints", &a.setpoints),
-        ("--report", &a.report),
-        ("--report-html", &a.report_html),
-    ]
-    .into_iter()
-    .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
-    .collect();
-    let input = (a.file != BUILTIN_BUTTERFLY).then_some(a.file.as_str());
-    io::check_outputs(input, &outputs)?;
+    check_plan_outputs(&a)?;
     check_period(a.period)?;
     let t0 = Instant::now();
     let method: Method = a.method.into();
-    // A file is read, smoothed and planned a part at a time unless an output needs the
-    // whole path (the page, the path samples) or it comes from stdin.
-    let streamed = a.file != BUILTIN_BUTTERFLY
-        && a.file != "-"
-        && a.report_html.is_none()
-        && a.path_samples.is_none();
-    let parse_opts = crate::parse_options().clone();
     let name = if a.file == BUILTIN_BUTTERFLY {
         a.file.clone()
     } else {
@@ -579,24 +562,7 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
             })
         })
         .transpose()?;
-    let mut streamed_input = None;
-    let toolpath = if a.file == BUILTIN_BUTTERFLY {
-        Some(builtin_butterfly())
-    } else if streamed {
-        let input =
-            StreamedInput::open(Path::new(&a.file), &name, &parse_opts, method, a.tol, shape)?;
-        if let Some(line) = input.units_assumed() {
-            ui.status(crate::units_warning(&name, line));
-        }
-        streamed_input = Some(input);
-        None
-    } else {
-        let program = load(&a.file)?.program;
-        if let Some(line) = program.stats.units_assumed {
-            ui.status(crate::units_warning(&name, line));
-        }
-        Some(program.toolpath)
-    };
+    let (toolpath, streamed_input) = read_source(&a, ui, &name, method, shape)?;
     let parse_s = t0.elapsed().as_secs_f64();
     // Every output is opened before the work (a bad directory fails at once) and moved into
     // place only when all of them were written: a failed run leaves none behind.
@@ -610,6 +576,167 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     let setpoints_out = open(&a.setpoints)?;
     let mut report_out = open(&a.report)?;
     let mut html_out = open(&a.report_html)?;
+    let (popts, iopts) = plan_options(&a)?;
+    let t1 = Instant::now();
+    let (mut source, program) = match (toolpath, streamed_input) {
+        (Some(toolpath), _) => {
+            let smoothed = smooth_for_plan(&toolpath, method, a.tol, shape)?;
+            // The program is kept only for the page (its path and the tolerance band).
+            let program = a.report_html.is_some().then_some(toolpath);
+            (Source::Whole(smoothed), program)
+        }
+        (None, Some(input)) => (Source::Streamed(Box::new(input)), None),
+        (None, None) => unreachable!("a file is loaded or streamed"),
+    };
+    let smooth_s = t1.elapsed().as_secs_f64();
+    let popts = match &source {
+        Source::Whole(smoothed) => {
+            whole_checks(&a, ui, &popts, smoothed, &mut samples_out)?;
+            popts
+        }
+        // The jerk split of the first blocks; --max-rows is checked as the moves arrive.
+        Source::Streamed(input) => input.tuned(&popts),
+    };
+    // A streamed plan learns its lower bound on the cycle time as the moves arrive.
+    let announce = |min_cycle_s: f64| match huge_output_note(&a, min_cycle_s) {
+        Some(note) => {
+            ui.status(note);
+            true
+        }
+        None => false,
+    };
+    let plots = program.is_some().then(PlotSink::default);
+    let pb = progress::spinner(ui, "planning and interpolating");
+    let (report, setpoints_out, plots) = execute_to(
+        &mut source,
+        (&popts, &iopts),
+        setpoints_out,
+        &a,
+        plots,
+        &announce,
+    )?;
+    pb.finish_and_clear();
+    check_limits(&a, ui, &popts, &report)?;
+    let total = t0.elapsed().as_secs_f64();
+    let run = PlanRunReport {
+        input: name.clone(),
+        method: method.name().to_string(),
+        smoothing: source.report(),
+        parse_s,
+        smooth_s,
+        end_to_end_real_time_factor: report.cycle_time_s / total,
+        plan: report,
+    };
+    write_reports(
+        &a,
+        ui,
+        &run,
+        &popts,
+        (&mut report_out, &mut html_out),
+        (program, plots, source),
+    )?;
+    io::commit_all(
+        [samples_out, setpoints_out, report_out, html_out]
+            .into_iter()
+            .flatten(),
+    )?;
+    summary(ui, &name, &run);
+    Ok(())
+}
+
+/// Fails when an output is the input or cannot be written.
+fn check_plan_outputs(a: &PlanArgs) -> Result<()> {
+    let outputs: Vec<(&str, &Path)> = [
+        ("--path-samples", &a.path_samples),
+        ("--setpoints", &a.setpoints),
+        ("--report", &a.report),
+        ("--report-html", &a.report_html),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+    .collect();
+    let input = (a.file != BUILTIN_BUTTERFLY).then_some(a.file.as_str());
+    io::check_outputs(input, &outputs)?;
+    io::check_outputs(input, &outputs)
+}
+
+/// The built-in profile or the program loaded whole, or the file opened to be streamed.
+fn read_source<'o>(
+    a: &'o PlanArgs,
+    ui: Ui,
+    name: &'o str,
+    method: Method,
+    shape: Option<TimeLimits>,
+) -> Result<(Option<Toolpath>, Option<StreamedInput<'o>>)> {
+    // A file is read, smoothed and planned a part at a time unless an output needs the
+    // whole path (the page, the path samples) or it comes from stdin.
+    let streamed = a.file != BUILTIN_BUTTERFLY
+        && a.file != "-"
+        && a.report_html.is_none()
+        && a.path_samples.is_none();
+    let mut streamed_input = None;
+    let toolpath = if a.file == BUILTIN_BUTTERFLY {
+        Some(builtin_butterfly())
+    } else if streamed {
+        let input = StreamedInput::open(
+            Path::new(&a.file),
+            name,
+            crate::parse_options(),
+            method,
+            a.tol,
+            shape,
+        )?;
+        if let Some(line) = input.units_assumed() {
+            ui.status(crate::units_warning(name, line));
+        }
+        streamed_input = Some(input);
+        None
+    } else {
+        let program = load(&a.file)?.program;
+        if let Some(line) = program.stats.units_assumed {
+            ui.status(crate::units_warning(name, line));
+        }
+        Some(program.toolpath)
+    };
+    Ok((toolpath, streamed_input))
+}
+
+/// The JSON report and, for a plan held whole, the page.
+fn write_reports(
+    a: &PlanArgs,
+    ui: Ui,
+    run: &PlanRunReport,
+    popts: &PlanOptions,
+    (report_out, html_out): (&mut Option<OutputFile>, &mut Option<OutputFile>),
+    (program, plots, source): (Option<Toolpath>, Option<PlotSink>, Source),
+) -> Result<()> {
+    let json = serde_json::to_string_pretty(run)?;
+    match (report_out, &a.report) {
+        (Some(f), _) => f.write_all(json.as_bytes())?,
+        (None, Some(_)) => io::print_stdout(json.as_bytes())?,
+        (None, None) => {}
+    }
+    if let (Some(f), Some(program), Some(plots), Source::Whole(smoothed)) =
+        (html_out, &program, plots, source)
+    {
+        let pb = progress::spinner(ui, "measuring the path for the page");
+        let html = page_html(
+            run,
+            &run.input,
+            a.tol,
+            popts,
+            program,
+            smoothed.toolpath,
+            plots,
+        );
+        pb.finish_and_clear();
+        f.write_all(html.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// The planner's and the interpolator's options these arguments ask for.
+fn plan_options(a: &PlanArgs) -> Result<(PlanOptions, InterpOptions)> {
     let popts = PlanOptions {
         feed_mm_s: a.feed,
         rapid_mm_s: a.rapid,
@@ -643,42 +770,23 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
         stop_on_either: a.newton_stop == NewtonStop::Either,
         arc_correction: !a.no_arc_correction,
     };
-    let t1 = Instant::now();
-    let (mut source, program) = match (toolpath, streamed_input) {
-        (Some(toolpath), _) => {
-            let smoothed = smooth_for_plan(&toolpath, method, a.tol, shape)?;
-            // The program is kept only for the page (its path and the tolerance band).
-            let program = a.report_html.is_some().then_some(toolpath);
-            (Source::Whole(smoothed), program)
-        }
-        (None, Some(input)) => (Source::Streamed(Box::new(input)), None),
-        (None, None) => unreachable!("a file is loaded or streamed"),
-    };
-    let smooth_s = t1.elapsed().as_secs_f64();
-    let popts = match &source {
-        Source::Whole(smoothed) => {
-            whole_checks(&a, ui, &popts, smoothed, &mut samples_out)?;
-            popts
-        }
-        // The jerk split of the first blocks; --max-rows is checked as the moves arrive.
-        Source::Streamed(input) => input.tuned(&popts),
-    };
+    Ok((popts, iopts))
+}
+
+/// Plans `source` into the setpoint output asked for (a file, stdout, or nowhere).
+fn execute_to(
+    source: &mut Source,
+    (popts, iopts): (&PlanOptions, &InterpOptions),
+    setpoints_out: Option<OutputFile>,
+    a: &PlanArgs,
+    plots: Option<PlotSink>,
+    announce: &(dyn Fn(f64) -> bool + Sync),
+) -> Result<(PlanReport, Option<OutputFile>, Option<PlotSink>)> {
     let max = a.max_rows;
-    // A streamed plan learns its lower bound on the cycle time as the moves arrive.
-    let announce = |min_cycle_s: f64| match huge_output_note(&a, min_cycle_s) {
-        Some(note) => {
-            ui.status(note);
-            true
-        }
-        None => false,
-    };
-    let plots = program.is_some().then(PlotSink::default);
-    let pb = progress::spinner(ui, "planning and interpolating");
-    let (report, setpoints_out, plots) = match (setpoints_out, &a.setpoints) {
+    Ok(match (setpoints_out, &a.setpoints) {
         (Some(f), _) => {
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, f);
-            let (rep, w, plots) =
-                execute_limited(&mut source, &popts, &iopts, w, max, plots, &announce)?;
+            let (rep, w, plots) = execute_limited(source, popts, iopts, w, max, plots, announce)?;
             (
                 rep,
                 Some(w.into_inner().map_err(|e| e.into_error())?),
@@ -688,25 +796,20 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
         (None, Some(_)) => {
             // Unlocked: the setpoints are written from the planner's second thread.
             let w = BufWriter::with_capacity(SETPOINT_BUFFER_BYTES, std::io::stdout());
-            let (rep, _, plots) =
-                execute_limited(&mut source, &popts, &iopts, w, max, plots, &announce)?;
+            let (rep, _, plots) = execute_limited(source, popts, iopts, w, max, plots, announce)?;
             (rep, None, plots)
         }
         (None, None) => {
-            let (rep, _, plots) = execute_limited(
-                &mut source,
-                &popts,
-                &iopts,
-                std::io::sink(),
-                max,
-                plots,
-                &announce,
-            )?;
+            let (rep, _, plots) =
+                execute_limited(source, popts, iopts, std::io::sink(), max, plots, announce)?;
             (rep, None, plots)
         }
-    };
-    pb.finish_and_clear();
-    let waived = waivers(&a, &report);
+    })
+}
+
+/// Fails when the measured setpoints break a limit the user did not waive.
+fn check_limits(a: &PlanArgs, ui: Ui, popts: &PlanOptions, report: &PlanReport) -> Result<()> {
+    let waived = waivers(a, report);
     if let Some(broken) = report.broken_limits() {
         if waived.is_empty() {
             if popts.jerk_scheme == JerkScheme::Follow {
@@ -723,43 +826,11 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
             waived.join(" and ")
         ));
     }
-    let total = t0.elapsed().as_secs_f64();
-    let run = PlanRunReport {
-        input: name.clone(),
-        method: method.name().to_string(),
-        smoothing: source.report(),
-        parse_s,
-        smooth_s,
-        end_to_end_real_time_factor: report.cycle_time_s / total,
-        plan: report,
-    };
-    let json = serde_json::to_string_pretty(&run)?;
-    match (&mut report_out, &a.report) {
-        (Some(f), _) => f.write_all(json.as_bytes())?,
-        (None, Some(_)) => io::print_stdout(json.as_bytes())?,
-        (None, None) => {}
-    }
-    if let (Some(f), Some(program), Some(plots), Source::Whole(smoothed)) =
-        (&mut html_out, &program, plots, source)
-    {
-        let pb = progress::spinner(ui, "measuring the path for the page");
-        let html = page_html(
-            &run,
-            &name,
-            a.tol,
-            &popts,
-            program,
-            smoothed.toolpath,
-            plots,
-        );
-        pb.finish_and_clear();
-        f.write_all(html.as_bytes())?;
-    }
-    io::commit_all(
-        [samples_out, setpoints_out, report_out, html_out]
-            .into_iter()
-            .flatten(),
-    )?;
+    Ok(())
+}
+
+/// The plan's one-line summary (and a note on jumps) on stderr.
+fn summary(ui: Ui, name: &str, run: &PlanRunReport) {
     let r = &run.plan;
     let worst = r.axes.iter().map(|x| x.a_ratio).fold(0.0f64, f64::max);
     let jerk = r
@@ -790,7 +861,6 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
             r.jumps[0].t_s
         ));
     }
-    Ok(())
 }
 
 #[cfg(test)]
