@@ -22,7 +22,7 @@
 
 use crate::cmd_plan::{axes, check_period, smooth_for_plan};
 use crate::io::{self, OutputFile};
-use crate::{cmd_inspect, load, progress, Ui};
+use crate::{load, progress, Ui};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use ncsmooth::feed::PlanOptions;
@@ -136,7 +136,7 @@ pub struct CompareReport {
     /// Limits.
     pub limits: PlanOptions,
     /// The program, inspected.
-    pub program: cmd_inspect::InspectReport,
+    pub program: ncsmooth_gcode::InspectReport,
     /// Per method, in [`METHODS`] order.
     pub methods: Vec<MethodResult>,
     /// Size of `index.html` (bytes).
@@ -241,6 +241,31 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
     })
 }
 
+/// The page of the methods' runs.
+fn page_view<'a>(job: &'a Job, runs: &'a [Run], failures: &[String]) -> PageView<'a> {
+    PageView {
+        title: format!("ncsmooth compare: {}", job.name),
+        input: job.name,
+        tol: job.tol,
+        limits: &job.popts,
+        program: &job.program.toolpath,
+        source: job.embed_source.then_some(job.src),
+        methods: runs
+            .iter()
+            .map(|r| MethodView {
+                name: r.result.method,
+                plan: &r.result.plan,
+                gcode: Some(&r.result.gcode),
+                speedup: r.result.speedup_vs_none,
+                compute_s: r.result.compute_s,
+                data: &r.data,
+                setpoints_file: r.result.setpoints.as_deref(),
+            })
+            .collect(),
+        notes: failures.to_vec(),
+    }
+}
+
 /// Runs every method of [`METHODS`] on `job`, writes the page, the JSON, the plots and
 /// the files of the methods that succeeded.
 pub fn compare(job: &Job, ui: Ui) -> Result<Outcome> {
@@ -261,27 +286,7 @@ pub fn compare(job: &Job, ui: Ui) -> Result<Outcome> {
         .iter()
         .filter_map(|r| r.result.failure.clone())
         .collect();
-    let page = PageView {
-        title: format!("ncsmooth compare: {}", job.name),
-        input: job.name,
-        tol: job.tol,
-        limits: &job.popts,
-        program: &job.program.toolpath,
-        source: job.embed_source.then_some(job.src),
-        methods: runs
-            .iter()
-            .map(|r| MethodView {
-                name: r.result.method,
-                plan: &r.result.plan,
-                gcode: Some(&r.result.gcode),
-                speedup: r.result.speedup_vs_none,
-                compute_s: r.result.compute_s,
-                data: &r.data,
-                setpoints_file: r.result.setpoints.as_deref(),
-            })
-            .collect(),
-        notes: failures.clone(),
-    };
+    let page = page_view(job, &runs, &failures);
     let (html, svgs) = report::render_page(&page);
     let table = report::table_text(&page.methods);
     drop(page);
@@ -297,7 +302,7 @@ pub fn compare(job: &Job, ui: Ui) -> Result<Outcome> {
         input: job.name.to_string(),
         tol_mm: job.tol,
         limits: job.popts.clone(),
-        program: cmd_inspect::report(job.name, job.program),
+        program: ncsmooth_gcode::InspectReport::of(job.name, job.program),
         methods: results,
         page_bytes: html.len(),
     };

@@ -16,7 +16,7 @@
 
 use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
-use crate::plan_stream::{plan_smoother, StreamedInput};
+use crate::plan_stream::StreamedInput;
 use crate::{io, load, progress, Ui};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
@@ -294,32 +294,17 @@ pub(crate) fn check_period(period: f64) -> Result<()> {
     Ok(())
 }
 
-/// The smoothing `plan --method M --tol T` plans: the curves built to the whole tolerance
-/// (setpoints are printed to 1e-9 mm: no flattening or rounding budget), chain by chain
-/// with the streamed plan's window ([`crate::plan_stream::plan_smoother`]), so that a
-/// program held whole (`compare`, `--report-html`, stdin) plans the path a streamed file
-/// does, block for block.
+/// The smoothing `plan --method M --tol T` plans ([`ncsmooth::smooth_for_plan`]: the
+/// streamed plan's windowed smoother run on the whole path, so that a program held whole
+/// plans the path a streamed file does); a method refusing its options is bad input.
 pub(crate) fn smooth_for_plan(
     tp: &Toolpath,
     method: Method,
     tol: f64,
     time_shape: Option<TimeLimits>,
 ) -> Result<Smoothed> {
-    let mut smoother = plan_smoother(method, tol, time_shape)?;
-    let mut out = Toolpath {
-        blocks: Vec::with_capacity(tp.blocks.len()),
-        ..Toolpath::new(tp.start)
-    };
-    out.units = tp.units;
-    out.extra_axes_mask = tp.extra_axes_mask;
-    for b in &tp.blocks {
-        smoother.push(b.clone(), &mut out.blocks);
-    }
-    smoother.finish(&mut out.blocks);
-    Ok(Smoothed {
-        toolpath: out,
-        report: smoother.report().clone(),
-    })
+    ncsmooth::smooth_for_plan(tp, method, tol, time_shape)
+        .map_err(|e| io::BadInput(e.to_string()).into())
 }
 
 /// Marks the write error of [`RowLimit`].
@@ -553,41 +538,18 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     } else {
         io::display_name(&a.file).to_string()
     };
-    let shape = a
-        .time_shape
-        .then(|| -> Result<TimeLimits> {
-            Ok(TimeLimits {
-                feed_mm_s: a.feed,
-                acc_mm_s2: axes("acc", &a.acc)?,
-            })
-        })
-        .transpose()?;
+    let shape = time_limits(&a)?;
     let (toolpath, streamed_input) = read_source(&a, ui, &name, method, shape)?;
     let parse_s = t0.elapsed().as_secs_f64();
     // Every output is opened before the work (a bad directory fails at once) and moved into
     // place only when all of them were written: a failed run leaves none behind.
-    let open = |p: &Option<PathBuf>| -> Result<Option<OutputFile>> {
-        match p {
-            Some(p) if p.as_os_str() != "-" => Ok(Some(OutputFile::create(p)?)),
-            _ => Ok(None),
-        }
-    };
     let mut samples_out = open(&a.path_samples)?;
     let setpoints_out = open(&a.setpoints)?;
     let mut report_out = open(&a.report)?;
     let mut html_out = open(&a.report_html)?;
     let (popts, iopts) = plan_options(&a)?;
     let t1 = Instant::now();
-    let (mut source, program) = match (toolpath, streamed_input) {
-        (Some(toolpath), _) => {
-            let smoothed = smooth_for_plan(&toolpath, method, a.tol, shape)?;
-            // The program is kept only for the page (its path and the tolerance band).
-            let program = a.report_html.is_some().then_some(toolpath);
-            (Source::Whole(smoothed), program)
-        }
-        (None, Some(input)) => (Source::Streamed(Box::new(input)), None),
-        (None, None) => unreachable!("a file is loaded or streamed"),
-    };
+    let (mut source, program) = source_of(&a, (toolpath, streamed_input), method, shape)?;
     let smooth_s = t1.elapsed().as_secs_f64();
     let popts = match &source {
         Source::Whole(smoothed) => {
@@ -642,6 +604,46 @@ fn run_once(a: PlanArgs, ui: Ui) -> Result<()> {
     )?;
     summary(ui, &name, &run);
     Ok(())
+}
+
+/// The limits `--time-shape` reshapes the runs for.
+fn time_limits(a: &PlanArgs) -> Result<Option<TimeLimits>> {
+    a.time_shape
+        .then(|| -> Result<TimeLimits> {
+            Ok(TimeLimits {
+                feed_mm_s: a.feed,
+                acc_mm_s2: axes("acc", &a.acc)?,
+            })
+        })
+        .transpose()
+}
+
+/// The output file at `p`, created (not yet in place); `None` for none or stdout.
+fn open(p: &Option<PathBuf>) -> Result<Option<OutputFile>> {
+    match p {
+        Some(p) if p.as_os_str() != "-" => Ok(Some(OutputFile::create(p)?)),
+        _ => Ok(None),
+    }
+}
+
+/// What is planned: a path held whole, smoothed now (with the program kept for the page
+/// only), or the file streamed.
+fn source_of<'o>(
+    a: &PlanArgs,
+    (toolpath, streamed_input): (Option<Toolpath>, Option<StreamedInput<'o>>),
+    method: Method,
+    shape: Option<TimeLimits>,
+) -> Result<(Source<'o>, Option<Toolpath>)> {
+    Ok(match (toolpath, streamed_input) {
+        (Some(toolpath), _) => {
+            let smoothed = smooth_for_plan(&toolpath, method, a.tol, shape)?;
+            // The program is kept only for the page (its path and the tolerance band).
+            let program = a.report_html.is_some().then_some(toolpath);
+            (Source::Whole(smoothed), program)
+        }
+        (None, Some(input)) => (Source::Streamed(Box::new(input)), None),
+        (None, None) => unreachable!("a file is loaded or streamed"),
+    })
 }
 
 /// Fails when an output is the input or cannot be written.

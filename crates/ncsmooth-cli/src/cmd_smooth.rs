@@ -325,6 +325,19 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         (Some(&a.output), &out.gcode[..]),
         (a.report.as_ref(), json.as_bytes()),
     ])?;
+    summary(ui, &a, name, r, t0, progress);
+    Ok(())
+}
+
+/// The run's two status lines (and a warning on long lines) on stderr.
+fn summary(
+    ui: Ui,
+    a: &SmoothArgs,
+    name: &str,
+    r: &ncsmooth_gcode::SmoothRunReport,
+    t0: Instant,
+    progress: impl Fn(u32),
+) {
     let s = &r.smoothing;
     let b = &r.blocks;
     if b.long_lines > 0 {
@@ -371,5 +384,4 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
         r.continuity.g0,
         t0.elapsed().as_secs_f64()
     ));
-    Ok(())
 }

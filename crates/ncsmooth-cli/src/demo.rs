@@ -5,7 +5,7 @@
 //! the plots, the program, each method's G-code and setpoints in `--out` (default
 //! `ncsmooth-demo/`).
 
-use crate::{cmd_compare, cmd_inspect, io, Ui};
+use crate::{cmd_compare, io, Ui};
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
@@ -71,8 +71,8 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
         &ncsmooth_gcode::ParseOptions::default(),
     )?;
     let parse_s = t0.elapsed().as_secs_f64();
-    let inspect = cmd_inspect::report("butterfly_1000.ngc (built in)", &program);
-    ui.status(cmd_inspect::render_text(&inspect));
+    let inspect = ncsmooth_gcode::InspectReport::of("butterfly_1000.ngc (built in)", &program);
+    ui.status(inspect.text());
     io::write_atomic(&a.out.join("butterfly_1000.ngc"), src.as_bytes())?;
     let popts = cmd_compare::limits(
         DEMO_FEED_MM_S,

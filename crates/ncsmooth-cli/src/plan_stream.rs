@@ -3,7 +3,7 @@
 //! ([`StreamSmoother`], a chain longer than its window cut as its module doc says), and
 //! planned and interpolated while it is read ([`execute_streamed`]). A program held whole
 //! (`compare`, `--report-html`, stdin) is smoothed by the same windowed smoother
-//! ([`plan_smoother`]), so the setpoints are the same either way.
+//! ([`StreamSmoother::for_plan`]), so the setpoints are the same either way.
 //!
 //! What needs the whole program is done on the way: the jerk split is chosen on the first
 //! [`SPLIT_SEARCH_MAX_BLOCKS`] smoothed blocks (as the whole path does), and `--max-rows`
@@ -16,41 +16,14 @@ use ncsmooth::feed::grid::IndexFeeder;
 use ncsmooth::feed::jerk::{fastest_split, SPLIT_SEARCH_MAX_BLOCKS};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::interp::{execute_streamed, InterpOptions, PlanError, PlanReport, SetpointSink};
-use ncsmooth::smooth::band_time::{TimeLimits, TimeShapeOptions};
-use ncsmooth::smooth::{Method, SmoothOptions, SmoothReport};
-use ncsmooth::{Block, StreamOptions, StreamSmoother, Toolpath, Vec3};
+use ncsmooth::smooth::band_time::TimeLimits;
+use ncsmooth::smooth::{Method, SmoothReport};
+use ncsmooth::{Block, StreamSmoother, Toolpath, Vec3};
 use ncsmooth_gcode::{BlockReader, ParseError, ParseOptions};
 use std::path::Path;
 
-/// Longest chain the smoother holds before cutting it (moves): smoothing a chain takes
-/// about 3.5 kB per move (the run fits), so this bounds most of the memory of a streamed
-/// plan. Measured peak resident memory of `plan --method bspline --setpoints`:
-/// linuxcnc_stellabee1 58.5 MB at 4096 (77.0 at 8192, 48.5 at 2048), a 5e6-line 0.01 mm
-/// spiral 43.1 MB (57.4 at 8192). Programs whose chains are all shorter are smoothed as
-/// `smooth` smooths them.
-pub const PLAN_WINDOW_MOVES: usize = 4096;
-
 /// Blocks asked of the reader at a time.
 const READ_BATCH_BLOCKS: usize = 4096;
-
-/// The smoother of `plan` (and of `compare`, which plans the same path): `method` to the
-/// whole tolerance `tol_mm`, chains cut at [`PLAN_WINDOW_MOVES`]; runs reshaped for
-/// `time_shape`'s limits when given (`--time-shape`).
-pub(crate) fn plan_smoother(
-    method: Method,
-    tol_mm: f64,
-    time_shape: Option<TimeLimits>,
-) -> Result<StreamSmoother> {
-    let mut sopts = SmoothOptions {
-        method,
-        tol_mm,
-        ..Default::default()
-    };
-    sopts.run.fit.time_shape = time_shape.map(TimeShapeOptions::new);
-    let mut stream = StreamOptions::default();
-    stream.window_moves = PLAN_WINDOW_MOVES;
-    Ok(StreamSmoother::new(sopts, stream).map_err(|e| io::BadInput(e.to_string()))?)
-}
 
 /// Why feeding stopped early.
 enum FeedStop {
@@ -83,7 +56,8 @@ impl<'o> StreamedInput<'o> {
     ) -> Result<Self> {
         let reader =
             BlockReader::open(path, name, parse).map_err(|e| diag::reported_at_line(e, path))?;
-        let smoother = plan_smoother(method, tol_mm, time_shape)?;
+        let smoother = StreamSmoother::for_plan(method, tol_mm, time_shape)
+            .map_err(|e| io::BadInput(e.to_string()))?;
         let mut input = StreamedInput {
             reader,
             smoother,

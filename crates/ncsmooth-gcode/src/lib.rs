@@ -71,8 +71,8 @@ pub use dialect::Dialect;
 pub use error::{ParseError, ParseErrorKind, Warning};
 pub use interp::frames::MachineModel;
 pub use job::{
-    BlendReport, BlockReport, EmitStyle, JobError, PlanRunReport, SmoothJob, SmoothRunReport,
-    Smoothed, Timings,
+    BlendReport, BlockReport, EmitStyle, InspectReport, JobError, MovesByCode, PlanRunReport,
+    SmoothJob, SmoothRunReport, Smoothed, Timings,
 };
 pub use ncsmooth::path::Units;
 pub use rewrite::{rewrite, RewriteOptions};

@@ -61,6 +61,6 @@ pub use interp::{
     SetpointSink, SetpointWriter,
 };
 pub use path::{Block, Event, EventKind, Move, MoveKind, Toolpath, Units};
-pub use smooth::stream::{StreamOptions, StreamSmoother};
+pub use smooth::stream::{smooth_for_plan, StreamOptions, StreamSmoother, PLAN_WINDOW_MOVES};
 pub use smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};
 pub use verify::{deviation, Deviation};

@@ -30,10 +30,12 @@
 //! assert!(String::from_utf8(done.gcode).unwrap().contains("(zig-zag)"));
 //! ```
 
+mod inspect;
 mod policy;
 mod report;
 mod smooth;
 
+pub use inspect::{InspectReport, MovesByCode};
 pub use report::{BlendReport, BlockReport, PlanRunReport, SmoothRunReport, Timings};
 
 use crate::{Dialect, ParseError, ParseOptions};

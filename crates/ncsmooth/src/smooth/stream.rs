@@ -20,8 +20,10 @@
 //! With a window, the per-run lists of [`SmoothReport`] keep their first
 //! [`MAX_LISTED_RUNS`] entries (the counts are complete).
 
-use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport};
+use super::band_time::{TimeLimits, TimeShapeOptions};
+use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport, Smoothed};
 use crate::geom::{ParamCurve, Segment};
+use crate::path::Toolpath;
 use crate::path::{Block, ExtraAxes, Move, MoveKind};
 use crate::verify::deviation_segments;
 
@@ -113,7 +115,34 @@ pub struct StreamSmoother {
     check: WindowCheck,
 }
 
+/// Longest chain a feed plan's smoother holds before cutting it (moves,
+/// [`StreamSmoother::for_plan`]): smoothing a chain takes about 3.5 kB per move (the run
+/// fits), so this bounds most of the memory of a streamed plan. Programs whose chains are
+/// all shorter are smoothed as [`super::smooth`] smooths them.
+pub const PLAN_WINDOW_MOVES: usize = 4096;
+
 impl StreamSmoother {
+    /// The smoother of a feed plan: `method` to the whole tolerance `tol_mm` (setpoints
+    /// carry no flattening or rounding), chains cut at [`PLAN_WINDOW_MOVES`]; runs
+    /// reshaped for `time_shape`'s limits when given.
+    pub fn for_plan(
+        method: Method,
+        tol_mm: f64,
+        time_shape: Option<TimeLimits>,
+    ) -> Result<Self, OptionsError> {
+        let mut sopts = SmoothOptions {
+            method,
+            tol_mm,
+            ..Default::default()
+        };
+        sopts.run.fit.time_shape = time_shape.map(TimeShapeOptions::new);
+        let stream = StreamOptions {
+            window_moves: PLAN_WINDOW_MOVES,
+            ..StreamOptions::default()
+        };
+        StreamSmoother::new(sopts, stream)
+    }
+
     /// A smoother with `opts`; fails on invalid options.
     pub fn new(opts: SmoothOptions, stream: StreamOptions) -> Result<Self, OptionsError> {
         opts.validate()?;
@@ -315,6 +344,31 @@ fn split_move(m: &Move, before: Option<ExtraAxes>) -> (Move, Move) {
         ..m.clone()
     };
     (first, second)
+}
+
+/// `tp` smoothed by [`StreamSmoother::for_plan`], whole: the path a streamed plan plans,
+/// block for block, for a program held in memory.
+pub fn smooth_for_plan(
+    tp: &Toolpath,
+    method: Method,
+    tol_mm: f64,
+    time_shape: Option<TimeLimits>,
+) -> Result<Smoothed, OptionsError> {
+    let mut smoother = StreamSmoother::for_plan(method, tol_mm, time_shape)?;
+    let mut out = Toolpath {
+        blocks: Vec::with_capacity(tp.blocks.len()),
+        ..Toolpath::new(tp.start)
+    };
+    out.units = tp.units;
+    out.extra_axes_mask = tp.extra_axes_mask;
+    for b in &tp.blocks {
+        smoother.push(b.clone(), &mut out.blocks);
+    }
+    smoother.finish(&mut out.blocks);
+    Ok(Smoothed {
+        toolpath: out,
+        report: smoother.report().clone(),
+    })
 }
 
 #[cfg(test)]
