@@ -17,8 +17,8 @@
 //! shown in red on the page; the run then writes the report but none of that method's
 //! files, and exits 1 (as `smooth` and `plan` would).
 //!
-//! Integration point (issue 16): `--emit` and `--dialect` are not accepted yet; they are
-//! passed to [`smooth_program`] once its options carry them.
+//! `--emit` and `--dialect` are not accepted yet; they are passed to
+//! [`smooth_program`] once its options carry them.
 
 use crate::cmd_plan::{axes, broken_limits, check_period, smooth_for_plan, PlanRunReport};
 use crate::cmd_smooth::smooth_program;
