@@ -97,7 +97,7 @@ pub struct TimeShapeOptions {
     /// L-BFGS iterations per penalty weight. Default 150.
     pub max_iters: usize,
     /// Rounds of coordinate sweeps, each followed by L-BFGS, at the last penalty weight.
-    /// Default 4 (more rounds change the planned time by well under a millisecond).
+    /// Default 4 (more rounds gain little: `docs/benchmarks/2026-12-02.md`).
     pub polish_rounds: usize,
 }
 
