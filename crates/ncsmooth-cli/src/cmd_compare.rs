@@ -17,8 +17,8 @@
 //! shown in red on the page; the run then writes the report but none of that method's
 //! files, and exits 1 (as `smooth` and `plan` would).
 //!
-//! Integration point (issue 16): `--emit` and `--dialect` are not accepted yet; they are
-//! passed to [`SmoothJob`] once its options carry them.
+//! `--emit` and `--dialect` are not accepted yet: every method is written for LinuxCNC
+//! with [`SmoothJob`]'s defaults.
 
 use crate::cmd_plan::{axes, check_period, smooth_for_plan};
 use crate::io::{self, OutputFile};

@@ -125,9 +125,8 @@ impl Dialect {
     /// over `ARC_BLEND_TANGENT_KINK_RATIO` of the limit, with an arc's share halved), no
     /// blend arc is made at a blend tolerance of a micrometre, and the joint falls back to
     /// the kink velocity or a parabolic blend that halves the arc's normal acceleration.
-    /// Measured on linuxcnc_blur_torus (bspline, 342 of its 371 written arcs): joints at
-    /// 2 mm/s (the kink velocity), arcs of 3.2 mm radius at 26.2 mm/s where 37.1 is
-    /// allowed; 202.7 s against 182.6 s with those arcs flattened. There, only arcs that
+    /// Such a joint runs at the kink velocity and the arc below the speed its radius
+    /// allows (measured in `docs/benchmarks/2026-12-02.md`). There, only arcs that
     /// meet the program's own lines (or the run's ends) at both ends stay native
     /// ([`crate::writer::NATIVE_ARC_MIN_BLOCKS`]).
     pub fn keeps_long_arcs(self) -> bool {

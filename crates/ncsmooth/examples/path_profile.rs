@@ -1,5 +1,5 @@
 //! Profile of each method's path: curvature along arc length against a reference, and
-//! where the planned speed falls below the feed and why. A development tool (issue 17);
+//! where the planned speed falls below the feed and why. A development tool;
 //! it prints a summary and, with `--csv DIR`, writes one CSV per method (not committed).
 //!
 //! Usage:

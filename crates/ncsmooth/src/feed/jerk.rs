@@ -28,8 +28,7 @@
 //!    feed and rapid rates. At the usual settings (50 mm/s, 500 mm/s^2, 5000 mm/s^3)
 //!    `U*` = 248 mm/s^2 is above the default share (148.5 mm/s^2) and changes nothing;
 //!    when the jerk is small against the acceleration it keeps the window, which every
-//!    stop waits out twice, from growing as `A / J` (at 500 mm/s^2 and 20 mm/s^3 it was
-//!    50 s; it is 4 s).
+//!    stop waits out twice, from growing as `A / J`.
 //! 2. The setpoint time line is the moving average of that plan over a window `W`
 //!    ([`JerkCaps::window_s`]): `s_f(t) = (1/W) int_{t-W}^{t} s`. Then
 //!    `s_f' = mean of s'`, `|s_f''| = |s'(t) - s'(t-W)| / W <= U` and
@@ -95,20 +94,15 @@
 //!    `U_L = min_i min(A_i, J_i W / 2)`: a filtered position on a curve never sees it,
 //!    and one on a line sees `|a_i| = |s_f''| |T_i| <= U_L <= A_i` and
 //!    `|j_i| = |s_f'''| |T_i| <= 2 U_L / W <= J_i` (no curvature terms there). Beyond
-//!    the look-ahead window, unknown positions count as curved. Measured on crown at
-//!    50 mm/s, 500 mm/s^2 (its flanks): 1 to 2 % shorter cycles (trig at 5000 mm/s^3
-//!    12.467 -> 12.338 s, arc 19.480 -> 19.015).
+//!    the look-ahead window, unknown positions count as curved.
 //!
 //! ## Choosing the split per path
 //! Points 1 to 5 hold for any `U` and `J_t` in `(0, 1)` of the limits ([`JerkSplit`]);
 //! which is fastest depends on the path and the limits. A small `U` shortens the window
 //! (less dilation, shorter holds) and leaves the curvature more room, but every speed
 //! change takes longer; a small `J_t` leaves the geometric jerk terms more room but
-//! lengthens the window. Measured (cycle s, nurbs): butterfly_1000 at 200 mm/s,
-//! 3000 mm/s^2, 60000 mm/s^3 is fastest near `U` = 0.12 A, `J_t` = 0.55 J (7.24 s,
-//! against 8.42 s at the default 0.3/0.5 and 10.1 s at 0.7/0.5), but at 50 mm/s,
-//! 500 mm/s^2, 50000 mm/s^3 near 0.5/0.5 (10.48 s, against 13.72 s at 0.12/0.55).
-//! So unless [`super::PlanOptions::jerk_split`] gives one, the planning run
+//! lengthens the window. No one split is fastest on every path and every set of limits
+//! (`docs/benchmarks/2026-12-02.md`). So unless [`super::PlanOptions::jerk_split`] gives one, the planning run
 //! ([`crate::interp::execute`]) plans the path with each of [`SPLIT_CANDIDATES`] and
 //! a short local search around the best ([`fastest_split`]: planning passes only, no
 //! setpoints; a program longer than [`SPLIT_SEARCH_MAX_BLOCKS`] is judged by its first
@@ -123,9 +117,7 @@
 //! finite-difference jerk holds the limit itself, not only up to the noise. A limit for
 //! which that leaves less than [`super::MIN_LIMIT_FRACTION`] of `J` (below
 //! [`min_jerk_mm_s3`], 16.3 mm/s^3 at 1 ms) is refused by
-//! [`super::PlanOptions::validate`]: the printed setpoints cannot show it held (earlier
-//! versions planned such a limit at half its value and measured rounding alone, e.g.
-//! 3 to 4 mm/s^3 for `--jerk 1` at 1 ms).
+//! [`super::PlanOptions::validate`]: the printed setpoints cannot show it held.
 //!
 //! ## Limits of the scheme
 //! It is conservative, not time-optimal: `|s''| <= U` is global (not the larger
@@ -135,22 +127,16 @@
 //! at a G1 joint (the `arc` method's line-arc joints) costs the most: its step term makes
 //! the speed there `sqrt(J T / (0.75 |dK|))` at best, whatever the scheme, since the
 //! setpoints' finite-difference jerk shows the step. The cycle-time cost against the
-//! trapezoid is reported by `ncsmooth plan` (see the report of issue 6). Junction-deviation
+//! trapezoid is reported by `ncsmooth plan`. Junction-deviation
 //! corners (`--junction-dev`) remain velocity jumps and are reported, not limited.
 //!
-//! Where the time goes, measured on butterfly_1000 (tol 0.1 mm, 200 mm/s, 3000 mm/s^2,
-//! 60000 mm/s^3, trapezoid 4.09 s) by switching one part off at a time in a throwaway
-//! build (such plans do not hold the limits): nurbs 7.17 s with the chosen split;
-//! without the speed caps of the jerk terms (point 4) 5.64 s, without the dilation
-//! (point 3) 6.50 s, with the plan accelerating at the full `A` (caps unchanged) 6.38 s,
-//! all three off 4.11 s. arc 15.01 s; without the jerk caps 6.46 s: its G1 steps
-//! dominate. A trapezoid plan of the arc path with the step cap alone at the best
-//! sample alignment (`v^2 <= J T / (0.5 |dK_i|)`, the full `J`) takes 7.08 s, a floor
-//! for any planner measured this way. The `follow` scheme
-//! ([`super::JerkScheme::Follow`], `crate::interp`'s follower) chooses the setpoints
-//! themselves under the measured limits, with the coupling term exact: 4.59-4.61 s for
-//! bspline, nurbs and trig at this setting with the program's F raised to 200 mm/s
-//! (1.65 x the acceleration-only TOPP-RA bound, against 2.53-2.55 x here).
+//! Where the time goes (each part switched off in turn, in builds that do not hold the
+//! limits) is measured in `docs/benchmarks/2026-12-02.md`: for the `arc` method's path
+//! the G1 steps dominate, and a trapezoid plan with the step cap alone at the best sample
+//! alignment (`v^2 <= J T / (0.5 |dK_i|)`, the full `J`) is a floor for any planner
+//! measured this way. The `follow` scheme ([`super::JerkScheme::Follow`],
+//! `crate::interp`'s follower) chooses the setpoints themselves under the measured
+//! limits, with the coupling term exact.
 
 use crate::geom::Vec3;
 use crate::path::Toolpath;
@@ -364,7 +350,7 @@ impl JerkCaps {
 /// the curvature; `J_t` trades the window against the room `J_i - J_t |T_i|` left to
 /// the speed-dependent jerk terms. Measured on butterfly_1000 (nurbs, tol 0.1 mm,
 /// 200 mm/s, 3000 mm/s^2, 60000 mm/s^3) the cycle time is least near `U` = 0.12 and
-/// `J_t` = 0.55 of the limits (7.24 s, against 8.42 s with the default).
+/// `J_t` = 0.55 of the limits.
 pub const SPLIT_CANDIDATES: [JerkSplit; 6] = [
     JerkSplit::DEFAULT,
     JerkSplit {
@@ -419,7 +405,7 @@ pub const SPLIT_REFINE_STEPS: [(f64, f64); 4] =
     [(0.7, 0.1), (0.85, 0.05), (0.92, 0.025), (0.96, 0.0125)];
 /// Most program blocks [`fastest_split`] plans with: a longer program is judged by its
 /// first blocks, so that the search costs at most 22 planning passes of this many
-/// blocks (on linuxcnc_stellabee1, 168 k blocks, a whole pass takes some 18 s).
+/// blocks, whatever the program's length.
 pub const SPLIT_SEARCH_MAX_BLOCKS: usize = 8192;
 /// Range of the shares the local search of [`fastest_split`] keeps to.
 pub const SPLIT_SHARE_RANGE: (f64, f64) = (0.02, 0.9);

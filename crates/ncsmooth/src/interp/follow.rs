@@ -39,24 +39,19 @@
 //! ## Limits
 //! Not provably optimal; the shares `U_c`, `J_e` ([`FOLLOW_U_SHARE`],
 //! [`FOLLOW_JE_SHARE`]) bound only the safety predicate, not the motion. Every step
-//! evaluates the path at a few dozen arc lengths, so it is slower than the filter
-//! (butterfly_1000 at 200 mm/s, 3000 mm/s^2, 60000 mm/s^3: 0.2 s of computing for the
-//! 4.6 s of bspline or trig motion, 0.7 to 2 s for nurbs, whose one long NURBS costs
-//! more per evaluation) and a run is held whole while it is followed.
-//!
-//! Measured there (program F raised to 200 mm/s, tol 0.1 mm), cycle against the
-//! acceleration-only TOPP-RA bound on the same path: bspline 4.592 s (1.65 x), nurbs
-//! 4.600 (1.66), trig 4.605 (1.66), where the filter takes 7.02-7.07 s (2.53-2.55 x);
-//! arc 12.525 s (4.47 x; filter 14.97): its line-arc joints step the curvature, which
-//! finite differences show whatever the planner (see [`crate::feed::jerk`]). A run the follower cannot finish within
+//! evaluates the path at a few dozen arc lengths, so it is slower to compute than the
+//! filter (a NURBS costs more per evaluation than the other curves) and a run is held
+//! whole while it is followed. The `arc` method's line-arc joints step the curvature,
+//! which finite differences show whatever the planner (see [`crate::feed::jerk`]);
+//! cycle times against the filter and the acceleration-only TOPP-RA bound are in
+//! `docs/benchmarks/2026-12-02.md`. A run the follower cannot finish within
 //! [`MAX_BACKTRACKS`] is followed again with halved shares, and if that fails too it is
 //! sampled from the trapezoid ceiling, whose finite differences then exceed the jerk
 //! limit: the report says so, and the CLI plans the file again with the filter scheme
-//! (or exits non-zero when setpoints already went to stdout). Measured at 50 mm/s,
-//! 500 mm/s^2, 5000 mm/s^3: camotics_vcarve (3-D, dense micro-segments) has runs it
-//! gives up on (it falls back); cncjs_jsdc (lines, sharp corners) is followed but takes
-//! 69.4 s against the filter's 54.3 s, its many short rest-to-rest runs paying for the
-//! landing at `J_e`, `U_c`.
+//! (or exits non-zero when setpoints already went to stdout). Dense 3-D micro-segments
+//! (camotics_vcarve) can have runs it gives up on (it falls back), and a program of many
+//! short rest-to-rest runs (cncjs_jsdc) can take longer than with the filter, each run
+//! paying for the landing at `J_e`, `U_c`.
 
 use crate::feed::grid::MoveRef;
 use crate::feed::{jerk::planned_jerk, planned_acc, planned_vaxis, PathIndex, PlanOptions};

@@ -1466,7 +1466,7 @@ fn follow_stops_dwells_and_arcs() {
 }
 
 /// The butterfly NURBS at a literature setting: the follower holds the jerk and is much
-/// faster than the filter (measured: 4.6 s against 7.2 s on butterfly_1000 at 200 mm/s).
+/// faster than the filter.
 #[test]
 fn follow_butterfly_beats_the_filter() {
     let tp = butterfly_path();

@@ -54,8 +54,8 @@
 //! * Run mode (an extension of the paper): runs of micro-corners are first fitted through
 //!   the band and carried as an arc spline ([`super::run_mode`], [`super::arc_spline`]);
 //!   one arc per corner along such a run makes the curvature step between zero and `1/R`
-//!   at every leg, which a jerk limit pays for at every joint (butterfly_1000, tol 0.1,
-//!   200 mm/s, 3000 mm/s^2, jerk 60000: 12.525 s corner by corner, 6.397 s as arc splines).
+//!   at every leg, which a jerk limit pays for at every joint (butterfly_1000 under a
+//!   jerk limit: about half the cycle time as arc splines, `docs/benchmarks/2026-12-02.md`).
 //!   The transitions below handle the corners that remain.
 //! * Chain ends (rapids, events) are kept exactly, closed contours included: the closing
 //!   corner of a closed chain is where the chain is entered and left, so it stays a stop.
@@ -896,7 +896,7 @@ mod tests {
     fn straight_runs_keep_to_one_feed() {
         // A 5 mm line and quantised steps along it at 10 mm/s, then steps and a turning
         // line at 2 mm/s (cncjs_jsdc's cut and plunge feeds): one merged line would be
-        // written at the lower feed over its whole length (2 s longer on grbl).
+        // written at the lower feed over its whole length (slower on grbl).
         let pts = quantised_steps_between_lines(24);
         let mut tp = Toolpath::new(pts[0]);
         for (i, w) in pts.windows(2).enumerate() {

@@ -36,7 +36,7 @@
 //! rounded end points and centre, and a reader puts the centre on the bisector of the
 //! rounded ends: when they nearly meet (a full turn or helix trimmed by a blend at one
 //! end), a rounding error `e` of the ends moves the centre, and the whole circle, by about
-//! `e r / chord`. A line into a full helix of radius 8 mm (issue 15) lost 0.0017 mm of a
+//! `e r / chord`. A line into a full helix of radius 8 mm lost 0.0017 mm of a
 //! 0.01 mm tolerance that way after the blend itself measured within its budget. Measured
 //! with the writer's rounding (ends to 1e-4 mm, centre to 1e-6 mm), the read-back arc
 //! stays within 7e-5 mm of the exact one up to a half turn, 8e-5 at 270 degrees, and then
@@ -353,7 +353,7 @@ mod tests {
         }
     }
 
-    /// The program of issue 15 (G21 F100): a line into a full clockwise helix of radius
+    /// A program (G21 F100) of a line into a full clockwise helix of radius
     /// 8 mm dropping 2.5 mm.
     fn line_into_full_helix() -> Toolpath {
         let p0 = Vec3::new(-14.372598, 15.985548, 21.805119);
@@ -412,7 +412,7 @@ mod tests {
         out
     }
 
-    /// Issue 15: every method blends the line into the full helix within its tolerance,
+    /// Every method blends the line into the full helix within its tolerance,
     /// measured on the library's output and on the output as written and read back.
     /// Before, the helix kept after the blend swept 2 pi minus 0.17 degrees: its written
     /// ends 0.01 mm apart moved the read-back circle by ~0.002 mm (0.010455 mm for a

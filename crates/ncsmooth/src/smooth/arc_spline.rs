@@ -42,10 +42,9 @@ pub const LINE_CURVATURE_PER_MM: f64 = 0.1 * CURVATURE_FLOOR_PER_MM;
 /// Arcs are not split for curvature below about this length (mm; a biarc spanning less
 /// than four of it is not halved for curvature): a period's travel at 10 mm/s and 1 ms,
 /// where the steps of shorter arcs fall into one period of a plan and add up to what the
-/// curve's own curvature change costs. Measured on butterfly_1000 (tol 0.1, 200 mm/s,
-/// 3000 mm/s^2, jerk 60000, follow): no floor 6.081 s, 0.01 mm 6.397 s, 0.02 mm 6.732 s;
-/// cncjs_sample_slic3r's G-code (its E axis keeps every arc a block): 580 k, 330 k and
-/// 200 k blocks.
+/// curve's own curvature change costs. The floor trades some cycle time for fewer
+/// blocks (a file with an E axis keeps every arc a block; figures in
+/// `docs/benchmarks/2026-12-02.md`).
 pub const MIN_ARC_MM: f64 = 0.01;
 /// Most halvings of one cubic piece.
 pub const MAX_DEPTH: u32 = 14;

@@ -1,5 +1,5 @@
 //! One smooth curve through the tolerance band of a run of micro-lines: the engine of the
-//! methods' *run mode* (issue 17), shared by `bspline` (Guo), `nurbs` (Wu), `trig` (Tao)
+//! methods' *run mode*, shared by `bspline` (Guo), `nurbs` (Wu), `trig` (Tao)
 //! and `arc` (Wu's arcs), which each carry the result in their own curve family.
 //!
 //! ## Problem
@@ -140,7 +140,7 @@ pub struct BandFitOptions {
     /// Length `l` (mm) weighing curvature against curvature variation (module doc).
     /// Default 0.05 mm: on features longer than that (all but the tightest corners of
     /// micro-line programs) the curvature term dominates, which lowers the peaks that cap
-    /// the speed (butterfly_1000 at tol 0.01: 8.686 s against 8.697 s with 1 mm).
+    /// the speed.
     pub smoothing_len_mm: f64,
     /// Radius of the band the samples are held in, as a share of the tolerance (the
     /// measured deviation must then be within the tolerance). Default 0.95.
@@ -182,11 +182,9 @@ impl BandFitOptions {
     /// The fit run to its minimum (see Limits in the module doc): initial knot spans of at
     /// least [`MIN_KNOT_SPAN_MM`] and the stop on the penalty ([`ENERGY_SETTLE_SHARE`]).
     /// What `ncsmooth smooth` uses for LinuxCNC, whose blends follow the written curve's
-    /// own radius: camotics_vcarve (tol 0.01 mm, 50 mm/s, 500 mm/s^2, LinuxCNC 2.9, with
-    /// the merging of [`MERGE_SHARE`]) bspline / arc / nurbs / trig 20.340 s (trig without
-    /// it) -> 20.125 / 20.095 / 20.111 / 20.141 s. Not the default: on a spiral of
-    /// 0.04 mm chords planned with `--jerk-scheme follow` it took 11.2 s against 8.3 s
-    /// (the filter scheme 9.0 s against 10.6 s).
+    /// own radius (with the merging of [`MERGE_SHARE`]). Not the default: it costs
+    /// computing time, and on other paths it plans no faster (figures in
+    /// `docs/benchmarks/2026-12-02.md`).
     pub fn converged() -> BandFitOptions {
         BandFitOptions {
             min_knot_span_mm: MIN_KNOT_SPAN_MM,
@@ -216,11 +214,9 @@ pub struct RunOptions {
 /// Default [`RunOptions::merge_share`]: 0.3 of the tolerance. camotics_vcarve's clusters
 /// of sub-micrometre steps and its repeated points merge into the corners they round,
 /// which the run fit then takes in one curve (with runs of any length ratio and the fit
-/// run to its minimum): on LinuxCNC 2.9 (tol 0.01 mm, 50 mm/s, 500 mm/s^2, lines)
-/// bspline / arc / nurbs / trig 20.230 / 20.229 / 20.290 / 20.195 s -> 20.125 / 20.095 /
-/// 20.111 / 20.141 s (the input under `G64 P0.01`: 20.112 s). Shares of 0.2 and 0.4
-/// (merging next to lines of any length) gave 20.148 / 20.094 / 20.095 / 20.173 s and
-/// 20.162 / 20.131 / 20.127 / 20.118 s.
+/// run to its minimum). The merged points stay within this share of the tolerance, so
+/// the method smooths within the rest; shares of 0.2 and 0.4 were measured slower on
+/// LinuxCNC 2.9 (`docs/benchmarks/2026-12-02.md`).
 pub const MERGE_SHARE: f64 = 0.3;
 
 impl Default for RunOptions {

@@ -1,4 +1,4 @@
-//! Time shaping of a run's band fit at its slow spots (issue 17): where the machine has to
+//! Time shaping of a run's band fit at its slow spots: where the machine has to
 //! slow down on the fitted curve, the curve is reshaped inside the same two-sided band to
 //! the shape that the machine's limits traverse fastest.
 //!
@@ -10,7 +10,8 @@
 //! at the apex (a tight, slow turn costs less time than a wider one once the turn exceeds
 //! about 2 rad), and rounds the softer partner vertex, so that the axes keep more of their
 //! acceleration for the tangential direction on the way in and out
-//! (`scripts/band_time_study.py` measured up to 7 ms per spot at 50 mm/s, 500 mm/s^2).
+//! (`scripts/band_time_study.py` optimises the same band directly for time, as a
+//! reference for what a spot can gain).
 //!
 //! ## Method
 //! 1. **Speed model.** The minimum-time speed profile along a fixed curve under the feed and
@@ -52,8 +53,8 @@
 //! The optimisation is local (a start at the band fit, a fixed knot layout); the model
 //! ignores jerk and the period, and samples the band; the planner runs on the result as on
 //! any curve, so what it plans is what counts (butterfly_1000, tol 0.01, 50 mm/s,
-//! 500 mm/s^2: see the README). The cost is about a second per spot (thousands of
-//! gradient evaluations over some 100 variables), so it is off by default
+//! 500 mm/s^2: see `docs/benchmarks/2026-12-02.md`). The cost is about a second per spot
+//! (thousands of gradient evaluations over some 100 variables), so it is off by default
 //! (`--time-shape` on the command line).
 
 use super::band_fit::{polyline_deviation, EndCond};
@@ -86,8 +87,7 @@ pub struct TimeShapeOptions {
     /// Half-length (mm) of the curve over which a spot's time is modelled. Default 4 mm
     /// (a slow-down from 50 mm/s at 500 mm/s^2 takes 2.5 mm).
     pub window_mm: f64,
-    /// Half-length (mm) of the reshaped part around a spot. Default 0.7 mm (butterfly_1000
-    /// with nurbs: 0.5 mm 8.642 s, 0.7 mm 8.641 s, 1 mm 8.644 s).
+    /// Half-length (mm) of the reshaped part around a spot. Default 0.7 mm.
     pub free_half_mm: f64,
     /// Longest knot span (mm) in the reshaped part. Default 0.04 mm.
     pub dense_span_mm: f64,
@@ -97,8 +97,7 @@ pub struct TimeShapeOptions {
     /// L-BFGS iterations per penalty weight. Default 150.
     pub max_iters: usize,
     /// Rounds of coordinate sweeps, each followed by L-BFGS, at the last penalty weight.
-    /// Default 4 (butterfly_1000 with nurbs: 8.643 s after 1 round, 8.641 after 4; 8 and
-    /// 12 rounds gain 0.3 ms more of model time).
+    /// Default 4 (more rounds gain little: `docs/benchmarks/2026-12-02.md`).
     pub polish_rounds: usize,
 }
 

@@ -92,7 +92,7 @@
 //!   transitions for six corners): `smooth_closing_corner = false`.
 //! * **3-D**: `a`, `b` span the plane of the two legs; nothing else is needed.
 //!
-//! ## Run mode (an extension, issue 17; [`super::run_mode`])
+//! ## Run mode (an extension; [`super::run_mode`])
 //! The paper smooths one corner at a time and names the drawback itself (section 5: "the
 //! inability to achieve curvature continuity along the entire toolpath"). On a curve
 //! sampled every few tenths of a millimetre, one transition per vertex makes the curvature

@@ -486,7 +486,7 @@ fn flow_cuts(chain: &Chain<'_>) -> Vec<usize> {
 /// A line shorter than this many tolerances is a micro-line to [`simplify`]: its
 /// direction is not resolved inside the band (camotics_vcarve: 90 % of its lines are
 /// shorter than 0.01 mm; butterfly_1000, crown and linuxcnc_blur_torus have none, and
-/// merging the nearly collinear points of butterfly_1000's 0.4 mm chords cost 0.08 s on
+/// merging the nearly collinear points of butterfly_1000's 0.4 mm chords ran slower on
 /// LinuxCNC 2.9).
 pub const MICRO_LINE_TOLS: f64 = 2.0;
 

@@ -33,7 +33,7 @@
 //!    ([`super::arc_joint`], as in `--method arc`), and the few that cannot be are exact
 //!    stops, counted in `corners_stopped` and `arc_joints`.
 //!
-//! ## Run mode (an extension, issue 17)
+//! ## Run mode (an extension)
 //! With [`SmoothOptions::run`] enabled (the default) steps 1 and 3 change; the rest is the
 //! paper's. Screening uses [`ScreenOptions::run_mode`]: the chord-error condition of eq. 6
 //! is relaxed to [`super::screen::RUN_CHORD_SHARE`] times the tolerance and turns up to

@@ -22,7 +22,7 @@
 //! in closed form ([`PlanarArc::arc_piece_max`], [`PlanarArc::segment_max`]: an output
 //! arc that follows a programmed one, a few rounding units off its circle, is bounded in
 //! one step; the Lipschitz bound alone needs pieces of `accuracy` length there, 43 M
-//! queries on linuxcnc_arcspiral, 13 s). A piece is split until its bound is within
+//! queries on linuxcnc_arcspiral). A piece is split until its bound is within
 //! `accuracy / 2` of the best value found so far, at the point where an exact maximum is
 //! attained when there is one inside it (that point is then measured), else at its middle.
 //!
