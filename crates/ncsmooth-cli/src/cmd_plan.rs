@@ -44,14 +44,12 @@ const SAMPLE_ACCURACY_MM: f64 = 1e-9;
 const SETPOINT_BUFFER_BYTES: usize = 1 << 20;
 /// Shortest `--period` accepted (s): 10 us, a 100 kHz setpoint rate. CNC controllers take
 /// position setpoints every 0.125 to 4 ms (LinuxCNC's servo thread runs at 1 ms); a shorter
-/// period describes no machine, and the work and output grow as 1/period without bound
-/// (stellabee1's 1.9 h cycle at 1e-9 s would be 7e12 rows of CSV).
+/// period describes no machine, and the work and output grow as 1/period without bound.
 pub const MIN_PERIOD_S: f64 = 1e-5;
 /// Longest `--period` accepted (s): 100 ms, a 10 Hz setpoint rate, coarser than any
 /// position loop. Longer steps no longer describe the motion (the rows' finite-difference
 /// accelerations and the chord error the report measures lose their meaning), and such a
-/// value is most likely milliseconds typed as seconds (`--period 10` for 10 ms stretched a
-/// 9.9 s cycle to 920 s).
+/// value is most likely milliseconds typed as seconds (`--period 10` for 10 ms).
 pub const MAX_PERIOD_S: f64 = 0.1;
 /// Typical bytes of one setpoint row (`t,x,y,z,feed` at 9 decimals, no extra axis): the
 /// 6 927 405 rows of stellabee1 take 436 MB, 63 bytes each.
@@ -100,8 +98,7 @@ pub struct PlanArgs {
     pub method: MethodArg,
     /// Reshape each method's fitted runs at their slow spots (speed below 0.7 x feed) to
     /// the fastest curve inside the same band for `--feed` and `--acc` (minimum-time
-    /// optimisation, about a second per spot: butterfly_1000 8.668 -> 8.641 s with nurbs,
-    /// in 15 s of computing). Off by default.
+    /// optimisation, about a second of computing per spot). Off by default.
     #[arg(long)]
     pub time_shape: bool,
     /// Two-sided smoothing tolerance (mm).
