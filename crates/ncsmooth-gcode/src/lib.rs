@@ -49,30 +49,84 @@
 
 pub mod budget;
 pub mod canon;
-pub mod chain;
-pub mod chain_extra;
-pub mod dialect;
+pub mod controller;
 pub mod error;
-pub mod executed;
 pub mod expr;
 pub mod interp;
 pub mod lexer;
-pub mod rewrite;
+pub mod numbers;
+pub(crate) mod polyline;
 pub mod source;
 pub mod stream;
-pub mod writer;
+pub mod write;
 
 pub use budget::{read_back, Budget};
 pub use stream::BlockReader;
 
 pub use canon::Canon;
-pub use dialect::Dialect;
+pub use controller::dialect::Dialect;
 pub use error::{ParseError, ParseErrorKind, Warning};
 pub use interp::frames::MachineModel;
 pub use ncsmooth::path::Units;
-pub use rewrite::{rewrite, RewriteOptions};
 pub use source::SourceMap;
-pub use writer::{write, write_to, WriteOptions};
+pub use write::rewrite::{rewrite, RewriteOptions};
+pub use write::{write, write_to, WriteOptions};
+
+/// The writer's numbers, plain writer, motion constants and LinuxCNC blend schedule, at
+/// their old path ([`numbers`], [`mod@write`], [`controller::linuxcnc::blend`]).
+pub mod writer {
+    // compatibility path
+    pub use crate::controller::linuxcnc::blend::{
+        BlendSchedule, RunEnd, RunEnds, BLEND_SCHEDULE_MIN_SHARE, BLEND_SCHEDULE_SPEED_PASSES,
+        BLEND_SCHEDULE_STEPS_PER_HALVING, LINUXCNC_BLEND_GAP_CYCLES, LINUXCNC_NORMAL_ACC_SHARE,
+        LINUXCNC_TANGENTIAL_ACC_SHARE, LINUXCNC_TANGENT_KINK_RATIO, ROOM_SAMPLES, SPLIT_CANDIDATES,
+        SPLIT_KINK_RATIO, SPLIT_MIN_GAIN, SPLIT_ROOM,
+    };
+    pub use crate::numbers::{
+        push_fixed, rounding_mm, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS,
+        PRINT_DECIMALS_MAX,
+    };
+    pub use crate::write::motion::{
+        EXACT_END_SNAP_MM, MIN_ARC_CHORD_MM, MIN_ARC_RADIUS_MM, NATIVE_ARC_MIN_BLOCKS,
+    };
+    pub use crate::write::{write, write_to, WriteOptions};
+}
+
+/// A program rewritten in its own text, at its old path ([`write::rewrite`]).
+pub mod rewrite {
+    // compatibility path
+    pub use crate::controller::linuxcnc::{Blend, CornerBlend};
+    pub use crate::write::rewrite::*;
+}
+
+/// Chains of long blocks, evening out and lifting, at their old path
+/// ([`write::chain`], [`controller::linuxcnc::even_out`], [`controller::floor`]).
+pub mod chain {
+    // compatibility path
+    pub use crate::controller::floor::{lift_short_blocks, Program};
+    pub use crate::controller::linuxcnc::even_out::{
+        even_out, EvenOut, EVEN_OUT_STEPS, EVEN_OUT_SWEEPS,
+    };
+    pub use crate::write::chain::*;
+}
+
+/// Extra axes along a chain, at their old path ([`write::chain_extra`]).
+pub mod chain_extra {
+    // compatibility path
+    pub use crate::write::chain_extra::*;
+}
+
+/// The capability table, at its old path ([`controller::dialect`]).
+pub mod dialect {
+    // compatibility path
+    pub use crate::controller::dialect::*;
+}
+
+/// LinuxCNC's executed path, at its old path ([`controller::linuxcnc::executed`]).
+pub mod executed {
+    // compatibility path
+    pub use crate::controller::linuxcnc::executed::*;
+}
 
 use ncsmooth::Toolpath;
 
