@@ -100,7 +100,7 @@ use super::frames::{bit, AXIS_LETTERS};
 use super::Interp;
 use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind};
-use crate::Plane;
+use crate::source::Plane;
 use ncsmooth::geom::{Line, Vec3};
 use ncsmooth::path::{EventKind, Move, Units};
 
@@ -557,7 +557,7 @@ impl Interp<'_> {
         if !(self.has(b'@') || self.has(b'^')) {
             return Ok(None);
         }
-        if self.m.plane != crate::Plane::XY {
+        if self.m.plane != Plane::XY {
             return Err(self.cycle_err(
                 code10,
                 "cannot use polar coordinates except in the G17 plane",

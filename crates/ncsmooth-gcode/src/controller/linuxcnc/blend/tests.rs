@@ -231,7 +231,7 @@ fn blend_schedule_starts_a_run_from_where_the_machine_is() {
 
 #[test]
 fn a_point_gets_what_the_lines_beside_it_leave_of_the_tolerance() {
-    let c = crate::rewrite::CornerBlend {
+    let c = crate::controller::linuxcnc::CornerBlend {
         total_mm: 0.0099,
         max_p_mm: 0.0095,
     };
