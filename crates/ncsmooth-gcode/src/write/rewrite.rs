@@ -32,8 +32,7 @@ use crate::controller::linuxcnc::g64::{blend_text, path_mode_text, push_blend_li
 use crate::controller::linuxcnc::Blend;
 use crate::interp::program::Program;
 use crate::numbers::{push_fixed, unit_mm};
-use crate::source::Plane;
-use crate::source::{flags, LineInfo, WriteState};
+use crate::source::{flags, LineInfo, PathMode, Plane, WriteState};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
@@ -400,47 +399,13 @@ pub fn rewrite(
     };
     let extra_mask = program.toolpath.extra_axes_mask;
     let extra_before = extra_before_lines(&program.toolpath, lines.len());
-    let resets_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
-        matches!(k, EventKind::ExtraReset { .. })
-    });
-    // Motions the interpreter could not place (a move from an unknown position): LinuxCNC
-    // runs and blends them, so a run next to one does not start or end at rest.
-    let untracked_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
-        matches!(k, EventKind::Untracked { .. })
-    });
-    let setters_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
-        matches!(
-            k,
-            EventKind::ExtraMove { .. }
-                | EventKind::ExtraReset { .. }
-                | EventKind::Untracked { extra: Some(_) }
-        )
-    });
+    let (resets_before, untracked_before, setters_before) =
+        events_before_lines(&program.toolpath, lines.len());
     // Relative E: what the last run's written increments left the machine ahead of the
     // program, and the resets before the line it closed at.
     let mut e_carry: (f64, u32) = (0.0, 0);
     let mut s: Vec<u8> = Vec::with_capacity(src.len() + src.len() / 4 + 256);
-    let write_header = |s: &mut Vec<u8>| {
-        if let Some(h) = &opts.header {
-            for l in h.lines() {
-                s.extend_from_slice(b"; ");
-                s.extend_from_slice(l.as_bytes());
-                s.extend_from_slice(eol.as_bytes());
-            }
-        }
-    };
-    let mut changed = vec![false; lines.len()];
-    for (i, info) in lines.iter().enumerate() {
-        let o = &orig[orig_by[i].0..orig_by[i].1];
-        let w = &out[out_by[i].0..out_by[i].1];
-        changed[i] = !same_moves(o, w)
-            || (opts.rewrite_unchanged
-                && info.has(flags::REPLACEABLE)
-                && w.iter().any(|m| !m.is_rapid()));
-        if changed[i] && !info.has(flags::REPLACEABLE) {
-            return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
-        }
-    }
+    let changed = changed_lines(lines, (&orig, &orig_by), (&out, &out_by), opts)?;
     // The first smoothed move of the run of changed lines starting at `i` (its index).
     let first_move = |i: usize| {
         (i..lines.len())
@@ -467,7 +432,7 @@ pub fn rewrite(
         }
     };
     let mut region: Option<Region> = None;
-    let mut runs_bound_over: Option<crate::source::PathMode> = None;
+    let mut runs_bound_over: Option<PathMode> = None;
     // Motion code the next modal-motion line must be given, after a region.
     let mut pending_motion: Option<u16> = None;
     let rapids = rapids_ahead(lines, &orig, &orig_by, &changed);
@@ -529,26 +494,9 @@ pub fn rewrite(
                 }
                 runs_bound_over = None;
             }
-            match pending_motion {
-                Some(code) if info.has(flags::MODAL_MOTION) => {
-                    let at = motion_prefix_at(text);
-                    s.extend_from_slice(&text[..at]);
-                    s.extend_from_slice(motion_text(code).as_bytes());
-                    s.push(b' ');
-                    s.extend_from_slice(&text[at..]);
-                    pending_motion = None;
-                }
-                _ => {
-                    if info.has(flags::EXPLICIT_MOTION) {
-                        pending_motion = None;
-                    }
-                    s.extend_from_slice(text);
-                }
-            }
             let last_line = i + 1 == lines.len();
-            if !last_line || src.ends_with(b"\n") {
-                s.push(b'\n');
-            }
+            let newline = !last_line || src.ends_with(b"\n");
+            copy_line(&mut s, text, info, &mut pending_motion, newline);
         }
     }
     if let Some(mut r) = region.take() {
@@ -559,8 +507,93 @@ pub fn rewrite(
     if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
         s.extend_from_slice(eol.as_bytes());
     }
-    write_header(&mut s);
+    write_header(&mut s, opts, eol);
     Ok(s)
+}
+
+/// Per line, the events before it ([`extra_events_before_lines`]) that the runs depend on:
+/// the extra-axis resets, the untracked motions and the events that set extra axes.
+fn events_before_lines(tp: &Toolpath, n_lines: usize) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let resets_before =
+        extra_events_before_lines(tp, n_lines, |k| matches!(k, EventKind::ExtraReset { .. }));
+    // Motions the interpreter could not place (a move from an unknown position): LinuxCNC
+    // runs and blends them, so a run next to one does not start or end at rest.
+    let untracked_before =
+        extra_events_before_lines(tp, n_lines, |k| matches!(k, EventKind::Untracked { .. }));
+    let setters_before = extra_events_before_lines(tp, n_lines, |k| {
+        matches!(
+            k,
+            EventKind::ExtraMove { .. }
+                | EventKind::ExtraReset { .. }
+                | EventKind::Untracked { extra: Some(_) }
+        )
+    });
+    (resets_before, untracked_before, setters_before)
+}
+
+/// Appends the options' header, one `; ` comment line per line.
+fn write_header(s: &mut Vec<u8>, opts: &RewriteOptions, eol: &str) {
+    if let Some(h) = &opts.header {
+        for l in h.lines() {
+            s.extend_from_slice(b"; ");
+            s.extend_from_slice(l.as_bytes());
+            s.extend_from_slice(eol.as_bytes());
+        }
+    }
+}
+
+/// Per line, whether its moves are replaced: they changed, or (with
+/// [`RewriteOptions::rewrite_unchanged`]) it is replaceable and feeds. A line that may not
+/// be replaced and changed is an error.
+fn changed_lines(
+    lines: &[LineInfo],
+    (orig, orig_by): (&[&Move], &[(usize, usize)]),
+    (out, out_by): (&[&Move], &[(usize, usize)]),
+    opts: &RewriteOptions,
+) -> Result<Vec<bool>, RewriteError> {
+    let mut changed = vec![false; lines.len()];
+    for (i, info) in lines.iter().enumerate() {
+        let o = &orig[orig_by[i].0..orig_by[i].1];
+        let w = &out[out_by[i].0..out_by[i].1];
+        changed[i] = !same_moves(o, w)
+            || (opts.rewrite_unchanged
+                && info.has(flags::REPLACEABLE)
+                && w.iter().any(|m| !m.is_rapid()));
+        if changed[i] && !info.has(flags::REPLACEABLE) {
+            return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
+        }
+    }
+    Ok(changed)
+}
+
+/// Copies the line `text` (of `info`), with the motion code a region left pending put in
+/// front of its words when it is a modal-motion line, and `\n` after it when `newline`.
+fn copy_line(
+    s: &mut Vec<u8>,
+    text: &[u8],
+    info: &LineInfo,
+    pending_motion: &mut Option<u16>,
+    newline: bool,
+) {
+    match *pending_motion {
+        Some(code) if info.has(flags::MODAL_MOTION) => {
+            let at = motion_prefix_at(text);
+            s.extend_from_slice(&text[..at]);
+            s.extend_from_slice(motion_text(code).as_bytes());
+            s.push(b' ');
+            s.extend_from_slice(&text[at..]);
+            *pending_motion = None;
+        }
+        _ => {
+            if info.has(flags::EXPLICIT_MOTION) {
+                *pending_motion = None;
+            }
+            s.extend_from_slice(text);
+        }
+    }
+    if newline {
+        s.push(b'\n');
+    }
 }
 
 /// Per line, the program's extra-axis values before its first block (a move's values
