@@ -128,7 +128,7 @@ fn violations(module: &str, text: &str, top: bool) -> Vec<(usize, String)> {
     let own = rank(module).expect("a ranked module");
     imports(text, top)
         .into_iter()
-        .filter(|(_, target)| target != module && !rank(target).is_some_and(|r| r < own))
+        .filter(|(_, target)| target != module && rank(target).is_none_or(|r| r >= own))
         .collect()
 }
 

@@ -1,6 +1,6 @@
 //! The block floor: blocks shorter than a controller should be given lifted against the
 //! programmed path, within its tolerance ([`lift_short_blocks`]), with the spatial grid
-//! over the programmed polyline its queries use ([`SegGrid`]).
+//! over the programmed polyline its queries use (`SegGrid`).
 
 use crate::controller::linuxcnc::blend::{vertex_room, VertexRoom, ROOM_SAMPLES};
 use crate::controller::linuxcnc::CornerBlend;

@@ -38,6 +38,8 @@
 //! segment lies between the projections of two consecutive dense points, whatever their
 //! order, so a point of their chord is within `t` of it).
 
+#[cfg(doc)]
+use crate::controller::{floor::lift_short_blocks, linuxcnc::even_out::even_out};
 use crate::polyline::fits;
 use ncsmooth::geom::Vec3;
 

@@ -1,5 +1,5 @@
 //! How a motion writer writes: the units, modes and axes of the program it writes into
-//! ([`Frame`]) and how it writes runs of feed moves ([`ChainMode`]).
+//! (`Frame`) and how it writes runs of feed moves (`ChainMode`).
 
 #[cfg(doc)]
 use super::motion::{MotionWriter, NATIVE_ARC_MIN_BLOCKS};

@@ -42,9 +42,13 @@ pub mod frame;
 pub mod motion;
 pub mod rewrite;
 
+#[cfg(doc)]
+use crate::numbers::CENTRE_EXTRA_DECIMALS;
 use crate::numbers::MAX_DECIMALS;
 use frame::Frame;
 use motion::MotionWriter;
+#[cfg(doc)]
+use ncsmooth::geom::Flatten;
 use ncsmooth::path::{Block, EventKind, Toolpath};
 use std::fmt;
 

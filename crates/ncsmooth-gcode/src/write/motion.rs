@@ -6,10 +6,12 @@ use super::chain;
 use super::chain_extra::ExtraProfile;
 use super::frame::Frame;
 use crate::controller::floor::{lift_short_blocks_in, Floor, Lift};
-use crate::controller::linuxcnc::blend::*;
+use crate::controller::linuxcnc::blend::{
+    raise_for_rooms, raised_span, BlendSchedule, RunEnd, RunEnds, Split, VertexBlend, VertexRoom,
+};
 use crate::controller::linuxcnc::even_out::{even_out, EvenOut};
 use crate::controller::linuxcnc::g64::blend_words;
-use crate::numbers::*;
+use crate::numbers::{push_fixed, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS};
 use ncsmooth::geom::{Arc, CubicBez, Flatten, Nurbs, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Move, MoveKind, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;

@@ -1,6 +1,7 @@
-//! Evening out a chain of written blocks for LinuxCNC: written points moved along the
-//! dense polyline, within the tolerance and the room the blends leave, so that no block
-//! is much shorter than its neighbours.
+//! Evening out a chain of written blocks for a controller that blends its junctions by
+//! the length of the blocks (LinuxCNC): the written points moved along the dense polyline,
+//! within the tolerance, so that the tightest junction each one touches loosens
+//! ([`even_out`]).
 
 use crate::polyline::fits;
 use ncsmooth::geom::Vec3;
@@ -60,14 +61,14 @@ pub struct EvenOut<S, R> {
     pub dense_acc_mm: f64,
 }
 
-/// Moves the written points [`simplify`] chose along the dense polyline so that the
+/// Moves the written points [`simplify`](crate::write::chain::simplify) chose along the dense polyline so that the
 /// smallest of `how.score` over the junctions each one touches grows, keeping every
-/// block within `tol_mm` (the fit test of [`simplify`], rounding included): for a
+/// block within `tol_mm` (the fit test of [`simplify`](crate::write::chain::simplify), rounding included): for a
 /// controller that blends its junctions by the length of the blocks (LinuxCNC takes at
 /// most half of each line for a blend arc), the greedy cut's long block beside a short
 /// one leaves a tight blend where an even cut gives the curve's own radius.
 ///
-/// `idx` is what [`simplify`] returned for `pts`, the written points after `start`.
+/// `idx` is what [`simplify`](crate::write::chain::simplify) returned for `pts`, the written points after `start`.
 /// Hard points and the ends stay, no block is made shorter than `min_block_mm` unless it
 /// already was, and a point moved between dense points lies inside the curve by no more
 /// than `how.room` allows there. Each point is tried at [`EVEN_OUT_STEPS`] places of
@@ -189,7 +190,7 @@ mod tests {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// `dense` cut by [`simplify`] within 1e-3 mm (the start first), then by [`even_out`]
+    /// `dense` cut by [`simplify`](crate::write::chain::simplify) within 1e-3 mm (the start first), then by [`even_out`]
     /// with the junction rated by its shorter block (what LinuxCNC's blend takes half of),
     /// `room` inside the curve and a dense accuracy of 1e-5 mm.
     fn greedy_and_even(dense: &[Vec3], room: f64) -> (Vec<Vec3>, Vec<Vec3>) {

@@ -12,7 +12,7 @@ pub mod g64;
 /// at most `p + q` to the deviation of the written path.
 ///
 /// After the run the program's own mode is restored when it is at least as tight as the
-/// bound of the copied lines that follow (this one, or [`RewriteOptions::verbatim_blend`]
+/// bound of the copied lines that follow (this one, or [`RewriteOptions::verbatim_blend`](crate::RewriteOptions::verbatim_blend)
 /// before a stretch of rapids): `G61`, `G61.1`, or a `G64` whose `P + Q` is within it. A
 /// looser mode (LinuxCNC's start-up `G64` without `P`, or a larger `P`) is not restored:
 /// that bound is written instead, so the blending of the moves that follow stays bounded
@@ -25,7 +25,7 @@ pub struct Blend {
     pub q_mm: f64,
 }
 
-/// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`]):
+/// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`](crate::rewrite::BlockFloor::corner)):
 /// a programmed corner put in place of short blocks, and a point whose speed needs all of
 /// the run's `P` (a tight turn), may have their blends take what the tolerance leaves
 /// after the lines beside them (the writer's `vertex_room`).

@@ -1,6 +1,8 @@
 //! The settings of a rewrite: the emitter, the block floor and the LinuxCNC blending it
 //! writes ([`RewriteOptions`]).
 
+#[cfg(doc)]
+use super::rewrite;
 use crate::controller::dialect::Dialect;
 use crate::controller::linuxcnc::{Blend, CornerBlend};
 
