@@ -5,9 +5,10 @@
 //! (`write`) above the controllers they write for, and the read-back budget (`budget`) on
 //! top. Checked on the source text: every `crate::X` path outside comments in module `M`
 //! must name a module of a lower rank than `M` (a module's own submodules excepted; a name
-//! defined or re-exported at the crate root is not a module and is refused: use the
-//! module's own path). `lib.rs` (the public facade and its compatibility paths) is not
-//! checked, and neither is test code (`tests.rs`, `#[cfg(test)]` items).
+//! the crate root re-exports counts as the module it comes from, another crate's is
+//! allowed, and the compatibility modules and anything else defined in `lib.rs` are
+//! refused: use the module's own path). `lib.rs` (the public facade and its compatibility
+//! paths) is not checked, and neither is test code (`tests.rs`, `#[cfg(test)]` items).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -123,12 +124,73 @@ fn imports(text: &str, top: bool) -> Vec<(usize, String)> {
     out
 }
 
-/// The imports of module `module` in `text` that do not go to a lower rank.
-fn violations(module: &str, text: &str, top: bool) -> Vec<(usize, String)> {
+/// The names `lib.rs` re-exports (`pub use m::{A, b::C as D};`), each with the top-level
+/// module it comes from (`None`: another crate's, as `ncsmooth::path::Units`); the modules
+/// it defines inline (`pub mod writer { ... }`, the compatibility paths) come from `lib`,
+/// which has no rank, even where a function of the same name is re-exported (`rewrite`).
+type Roots = BTreeMap<String, Option<String>>;
+
+fn root_reexports(lib: &str) -> Roots {
+    let code: Vec<&str> = lib
+        .lines()
+        .map(|l| l.split("//").next().unwrap_or(""))
+        .collect();
+    let code = code.join("\n");
+    let mut out = Roots::new();
+    let mut rest = code.as_str();
+    while let Some(at) = rest.find("pub use ") {
+        rest = &rest[at + "pub use ".len()..];
+        let Some(end) = rest.find(';') else { break };
+        let stmt = rest[..end].split_whitespace().collect::<Vec<_>>().join(" ");
+        rest = &rest[end..];
+        let stmt = stmt.trim_start_matches("crate::");
+        let first = stmt.split("::").next().unwrap_or("");
+        let from = rank(first).map(|_| first.to_string());
+        let items: Vec<&str> = match stmt.find('{') {
+            Some(b) => stmt[b + 1..].trim_end_matches('}').split(',').collect(),
+            None => vec![stmt],
+        };
+        for item in items.iter().map(|i| i.trim()) {
+            let name = match item.split_once(" as ") {
+                Some((_, alias)) => alias.trim(),
+                None => item.rsplit("::").next().unwrap_or(""),
+            };
+            if !name.is_empty() && name != "*" && name != "_" {
+                out.insert(name.to_string(), from.clone());
+            }
+        }
+    }
+    let mut rest = code.as_str();
+    while let Some(at) = rest.find("pub mod ") {
+        rest = &rest[at + "pub mod ".len()..];
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if rest[name.len()..].trim_start().starts_with('{') {
+            out.insert(name, Some("lib".to_string()));
+        }
+    }
+    out
+}
+
+/// The imports of module `module` in `text` that do not go to a lower rank: a name the
+/// crate root re-exports counts as the module it comes from (another crate's: allowed),
+/// any other name that is not a ranked module (one defined in `lib.rs`, a compatibility
+/// module) is refused.
+fn violations(module: &str, text: &str, top: bool, roots: &Roots) -> Vec<(usize, String)> {
     let own = rank(module).expect("a ranked module");
     imports(text, top)
         .into_iter()
-        .filter(|(_, target)| target != module && rank(target).is_none_or(|r| r >= own))
+        .filter(|(_, target)| {
+            let from = match (rank(target), roots.get(target)) {
+                (Some(_), _) => target.as_str(),
+                (None, Some(Some(m))) => m.as_str(),
+                (None, Some(None)) => return false,
+                (None, None) => return true,
+            };
+            from != module && rank(from).is_none_or(|r| r >= own)
+        })
         .collect()
 }
 
@@ -148,6 +210,11 @@ fn modules_import_downward_only() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut all = Vec::new();
     files(&src, &mut all);
+    let roots = root_reexports(&std::fs::read_to_string(src.join("lib.rs")).unwrap());
+    assert!(
+        roots.get("Dialect") == Some(&Some("controller".to_string())),
+        "root re-exports not read: {roots:?}"
+    );
     let mut seen: BTreeMap<String, usize> = BTreeMap::new();
     let mut bad = Vec::new();
     for f in &all {
@@ -168,7 +235,8 @@ fn modules_import_downward_only() {
         };
         *seen.entry(module.clone()).or_default() += 1;
         let top = rel.components().count() == 1;
-        for (line, target) in violations(&module, &std::fs::read_to_string(f).unwrap(), top) {
+        let text = std::fs::read_to_string(f).unwrap();
+        for (line, target) in violations(&module, &text, top, &roots) {
             bad.push(format!(
                 "{}:{line}: {module} imports crate::{target}",
                 rel.display()
@@ -215,20 +283,52 @@ fn an_upward_import_is_seen() {
             (13, "numbers".to_string()),
         ]
     );
+    let roots = root_reexports(
+        "pub use controller::dialect::Dialect;\n\
+         pub use interp::program::{\n    parse_str, Program,\n};\n\
+         pub use ncsmooth::path::Units;\n\
+         pub use write::rewrite::{rewrite, RewriteOptions};\n\
+         pub mod numbers;\n\
+         pub mod writer {\n    // compatibility path\n    pub use crate::numbers::*;\n}\n\
+         pub mod rewrite {\n    pub use crate::write::rewrite::*;\n}\n",
+    );
+    assert_eq!(roots.len(), 7, "{roots:?}");
     assert_eq!(
-        violations("controller", text, false),
+        violations("controller", text, false, &roots),
         vec![
             (3, "write".to_string()),
             (4, "stream".to_string()),
-            (5, "Program".to_string()),
             (12, "write".to_string()),
             (13, "budget".to_string()),
         ]
     );
     // A file directly in src/: `super::` is the crate root.
     assert_eq!(
-        violations("lexer", "use super::interp::Interp;\n", true),
+        violations("lexer", "use super::interp::Interp;\n", true, &roots),
         vec![(1, "interp".to_string())]
     );
-    assert!(violations("lexer", "use super::interp::Interp;\n", false).is_empty());
+    assert!(violations("lexer", "use super::interp::Interp;\n", false, &roots).is_empty());
+    // Root names count as their module; another crate's are allowed; a compatibility
+    // module or a name the root does not re-export is refused.
+    let text = "use crate::{Dialect, Units};\nuse crate::Program;\nuse crate::writer::push_fixed;\nuse crate::Nowhere;\n";
+    assert_eq!(
+        violations("write", text, false, &roots),
+        vec![(3, "writer".to_string()), (4, "Nowhere".to_string())]
+    );
+    assert_eq!(
+        violations("write", "use crate::rewrite::Emit;\n", false, &roots),
+        vec![(1, "rewrite".to_string())]
+    );
+    assert_eq!(
+        violations("stream", text, false, &roots),
+        vec![
+            (1, "Dialect".to_string()),
+            (3, "writer".to_string()),
+            (4, "Nowhere".to_string())
+        ]
+    );
+    assert_eq!(
+        violations("interp", "use crate::Program;\n", false, &roots),
+        vec![]
+    );
 }
