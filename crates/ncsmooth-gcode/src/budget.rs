@@ -17,7 +17,8 @@
 //! both ways; the budget holds when that deviation plus the blending is within `tol`
 //! ([`Budget::holds`]).
 
-use crate::{parse_bytes, ParseError, Program};
+use crate::error::ParseError;
+use crate::interp::program::{parse_bytes, ParseOptions, Program};
 use ncsmooth::verify::{deviation, Deviation};
 use ncsmooth::Toolpath;
 
@@ -60,8 +61,8 @@ impl Budget {
             .stats
             .units_seen
             .iter()
-            .map(|&u| crate::rewrite::rounding_mm_for(u, decimals))
-            .fold(crate::writer::rounding_mm(decimals), f64::max);
+            .map(|&u| crate::numbers::rounding_mm_for(u, decimals))
+            .fold(crate::numbers::rounding_mm(decimals), f64::max);
         Budget {
             tol_mm,
             chord_mm,
@@ -93,7 +94,7 @@ pub fn read_written(text: &[u8], name: &str) -> Result<Toolpath, ParseError> {
 pub fn read_written_with(
     text: &[u8],
     name: &str,
-    opts: &crate::ParseOptions,
+    opts: &ParseOptions,
 ) -> Result<Toolpath, ParseError> {
     Ok(parse_bytes(text, name, opts)?.toolpath)
 }
@@ -115,7 +116,7 @@ pub fn read_back_with(
     name: &str,
     program: &Toolpath,
     accuracy_mm: f64,
-    opts: &crate::ParseOptions,
+    opts: &ParseOptions,
 ) -> Result<(Toolpath, Deviation), ParseError> {
     let written = read_written_with(text, name, opts)?;
     let dev = deviation(&written, program, accuracy_mm);

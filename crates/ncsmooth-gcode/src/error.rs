@@ -260,6 +260,23 @@ pub(crate) fn locate(src: &[u8], range: Range<usize>) -> (u32, u32, Range<usize>
     )
 }
 
+/// Where `range` of a line is: `(line number, column, range)`. `line` is the text of line
+/// index `k` starting at offset `start`; a range outside it is clamped to it.
+pub(crate) fn locate_in_line(
+    line: &[u8],
+    k: usize,
+    start: usize,
+    range: Range<usize>,
+) -> (u32, u32, Range<usize>) {
+    let rel = range.start.saturating_sub(start)..range.end.saturating_sub(start);
+    let (_, column, r) = locate(line, rel);
+    (
+        u32::try_from(k + 1).unwrap_or(u32::MAX),
+        column,
+        start + r.start..start + r.end,
+    )
+}
+
 impl ParseError {
     /// Builds an error located at `range` of line index `k`, whose text `line` starts at
     /// offset `start` of the source.
@@ -271,7 +288,7 @@ impl ParseError {
         range: Range<usize>,
         kind: ParseErrorKind,
     ) -> Self {
-        let (line, column, byte_range) = crate::interp::text::locate_in_line(line, k, start, range);
+        let (line, column, byte_range) = locate_in_line(line, k, start, range);
         ParseError {
             file: file.to_string(),
             line,

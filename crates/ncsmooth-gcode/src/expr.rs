@@ -33,8 +33,8 @@
 //! Nesting (brackets, `#` chains, signs) is limited to [`MAX_DEPTH`] so that hostile input
 //! cannot overflow the stack.
 
+use crate::cursor::{Cursor, LexError};
 use crate::error::ParseErrorKind;
-use crate::lexer::{Cursor, LexError};
 use std::collections::HashMap;
 
 /// Deepest nesting of brackets, parameter references and signs.

@@ -2,8 +2,19 @@
 //! program in place ([`crate::rewrite()`]): which lines may be replaced by smoothed motion,
 //! and the modal state a replacement must restore after itself.
 
-use crate::Plane;
 use ncsmooth::path::Units;
+
+/// The active plane for arcs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Plane {
+    /// G17: XY, normal +Z.
+    #[default]
+    XY,
+    /// G18: ZX, normal +Y.
+    XZ,
+    /// G19: YZ, normal +X.
+    YZ,
+}
 
 /// The modal state a writer needs after a line: how its successors read axis words.
 #[derive(Clone, Copy, Debug, PartialEq)]

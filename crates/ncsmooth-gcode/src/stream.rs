@@ -23,9 +23,9 @@
 //!   ([`BlockReader::warnings_dropped`]).
 
 use crate::error::{ParseError, ParseErrorKind};
+use crate::interp::program::{ParseOptions, ParseStats};
 use crate::interp::text::{FileText, Text};
 use crate::interp::Interp;
-use crate::{ParseOptions, ParseStats};
 use ncsmooth::geom::{ParamCurve, Vec3};
 use ncsmooth::path::{Block, Units};
 use std::fs::File;

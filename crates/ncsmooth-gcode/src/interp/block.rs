@@ -81,7 +81,7 @@ pub(crate) fn push_word(s: &mut String, letter: u8, v: f64) {
         s.push(' ');
     }
     s.push(letter as char);
-    crate::writer::push_fixed(s, v, 10);
+    crate::numbers::push_fixed(s, v, 10);
 }
 
 /// LinuxCNC's modal group of a G code (tenths), as an index below [`G_GROUPS`]; `None`

@@ -100,7 +100,7 @@ use super::frames::{bit, AXIS_LETTERS};
 use super::Interp;
 use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind};
-use crate::Plane;
+use crate::source::Plane;
 use ncsmooth::geom::{Line, Vec3};
 use ncsmooth::path::{EventKind, Move, Units};
 
@@ -376,91 +376,13 @@ impl Interp<'_> {
         let q = self.cycle_q(code10, same)?;
         let ijk = self.cycle_ijk(code10, same, &pl)?;
         let spindle = self.m.spindle;
-        match (code10, spindle) {
-            (840, 0) | (740, 0) => {
-                return Err(self.cycle_err(code10, "spindle not turning"));
-            }
-            (840, -1) => {
-                return Err(self.cycle_err(code10, "spindle turning counterclockwise in G84"));
-            }
-            (740, 1) => {
-                return Err(self.cycle_err(code10, "spindle turning clockwise in G74"));
-            }
-            (860..=880, 0) => {
-                return Err(self.cycle_err(code10, "spindle not turning"));
-            }
-            _ => {}
-        }
+        self.cycle_spindle_check(code10, spindle)?;
 
         // Levels.
         let cur = [self.cycle_pos(0), self.cycle_pos(1), self.cycle_pos(2)];
-        let initial = match self.m.cycle.initial {
-            Some(Some(mm)) => Lv {
-                p: to_program(mm, scale),
-                mm,
-                known: true,
-            },
-            Some(None) => Lv {
-                known: false,
-                ..cur[pl.n]
-            },
-            None => {
-                let v = cur[pl.n];
-                self.m.cycle.initial = Some(v.known.then_some(v.mm));
-                v
-            }
-        };
-        let (mut aa, mut bb, r, bottom, inc) = if self.m.absolute {
-            let aa = match self.prog_word(AXIS_LETTERS[pl.a]) {
-                Some(v) => Lv::word(v, scale),
-                None => cur[pl.a],
-            };
-            let bb = match self.prog_word(AXIS_LETTERS[pl.b]) {
-                Some(v) => Lv::word(v, scale),
-                None => cur[pl.b],
-            };
-            // Polar words (G17 only): about the origin, a missing one from the current
-            // point's radius or angle.
-            let (aa, bb) = match polar {
-                Some((radius, theta)) => {
-                    let (x, y) = (cur[0], cur[1]);
-                    let r = radius.unwrap_or_else(|| y.p.hypot(x.p));
-                    let th = theta.unwrap_or_else(|| y.p.atan2(x.p));
-                    let known = x.known && y.known || radius.is_some() && theta.is_some();
-                    let (a, b) = (Lv::word(r * th.cos(), scale), Lv::word(r * th.sin(), scale));
-                    (
-                        Lv {
-                            known: a.known && known,
-                            ..a
-                        },
-                        Lv {
-                            known: b.known && known,
-                            ..b
-                        },
-                    )
-                }
-                None => (aa, bb),
-            };
-            let r = Lv::word(r_word, scale);
-            (
-                aa,
-                bb,
-                r,
-                Lv::word(bottom_word, scale),
-                Increments::default(),
-            )
-        } else {
-            let (radius, theta) = polar.unwrap_or((None, None));
-            let inc = Increments {
-                a: self.prog_word(AXIS_LETTERS[pl.a]).unwrap_or(0.0),
-                b: self.prog_word(AXIS_LETTERS[pl.b]).unwrap_or(0.0),
-                radius: radius.unwrap_or(0.0),
-                theta_rad: theta.unwrap_or(0.0),
-            };
-            let r = initial.plus(r_word, scale);
-            let bottom = r.plus(bottom_word, scale);
-            (cur[pl.a], cur[pl.b], r, bottom, inc)
-        };
+        let initial = self.cycle_initial(cur[pl.n], scale);
+        let (mut aa, mut bb, r, bottom, inc) =
+            self.cycle_levels(&pl, cur, polar, (initial, r_word, bottom_word), scale);
         if r.p < bottom.p {
             return Err(self.cycle_err(
                 code10,
@@ -551,13 +473,118 @@ impl Interp<'_> {
         Ok(())
     }
 
+    /// Errors when the spindle does not turn as canned cycle `code10` needs.
+    fn cycle_spindle_check(&self, code10: u16, spindle: i8) -> Result<(), ParseError> {
+        match (code10, spindle) {
+            (840, 0) | (740, 0) => {
+                return Err(self.cycle_err(code10, "spindle not turning"));
+            }
+            (840, -1) => {
+                return Err(self.cycle_err(code10, "spindle turning counterclockwise in G84"));
+            }
+            (740, 1) => {
+                return Err(self.cycle_err(code10, "spindle turning clockwise in G74"));
+            }
+            (860..=880, 0) => {
+                return Err(self.cycle_err(code10, "spindle not turning"));
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The initial level of the cycles (the drilling axis where the first of them started,
+    /// recorded then from `cur_n`, the current level).
+    fn cycle_initial(&mut self, cur_n: Lv, scale: f64) -> Lv {
+        match self.m.cycle.initial {
+            Some(Some(mm)) => Lv {
+                p: to_program(mm, scale),
+                mm,
+                known: true,
+            },
+            Some(None) => Lv {
+                known: false,
+                ..cur_n
+            },
+            None => {
+                let v = cur_n;
+                self.m.cycle.initial = Some(v.known.then_some(v.mm));
+                v
+            }
+        }
+    }
+
+    /// The cycle's position in the plane, its R and bottom levels and the increments of
+    /// each repeat, from the words (`polar`, the R and bottom words) and the current
+    /// position `cur`.
+    fn cycle_levels(
+        &mut self,
+        pl: &CyclePlane,
+        cur: [Lv; 3],
+        polar: Option<PolarWords>,
+        (initial, r_word, bottom_word): (Lv, f64, f64),
+        scale: f64,
+    ) -> (Lv, Lv, Lv, Lv, Increments) {
+        if self.m.absolute {
+            let aa = match self.prog_word(AXIS_LETTERS[pl.a]) {
+                Some(v) => Lv::word(v, scale),
+                None => cur[pl.a],
+            };
+            let bb = match self.prog_word(AXIS_LETTERS[pl.b]) {
+                Some(v) => Lv::word(v, scale),
+                None => cur[pl.b],
+            };
+            // Polar words (G17 only): about the origin, a missing one from the current
+            // point's radius or angle.
+            let (aa, bb) = match polar {
+                Some((radius, theta)) => {
+                    let (x, y) = (cur[0], cur[1]);
+                    let r = radius.unwrap_or_else(|| y.p.hypot(x.p));
+                    let th = theta.unwrap_or_else(|| y.p.atan2(x.p));
+                    let known = x.known && y.known || radius.is_some() && theta.is_some();
+                    let (a, b) = (Lv::word(r * th.cos(), scale), Lv::word(r * th.sin(), scale));
+                    (
+                        Lv {
+                            known: a.known && known,
+                            ..a
+                        },
+                        Lv {
+                            known: b.known && known,
+                            ..b
+                        },
+                    )
+                }
+                None => (aa, bb),
+            };
+            let r = Lv::word(r_word, scale);
+            (
+                aa,
+                bb,
+                r,
+                Lv::word(bottom_word, scale),
+                Increments::default(),
+            )
+        } else {
+            let (radius, theta) = polar.unwrap_or((None, None));
+            let inc = Increments {
+                a: self.prog_word(AXIS_LETTERS[pl.a]).unwrap_or(0.0),
+                b: self.prog_word(AXIS_LETTERS[pl.b]).unwrap_or(0.0),
+                radius: radius.unwrap_or(0.0),
+                theta_rad: theta.unwrap_or(0.0),
+            };
+            let r = initial.plus(r_word, scale);
+            let bottom = r.plus(bottom_word, scale);
+            (cur[pl.a], cur[pl.b], r, bottom, inc)
+        }
+    }
+
     /// The polar words of a cycle block, `(@ in program units, ^ in rad)`, if it has any:
     /// under G17 only, and without X or Y (LinuxCNC's `enhance_block`).
     fn cycle_polar(&mut self, code10: u16) -> Result<Option<PolarWords>, ParseError> {
         if !(self.has(b'@') || self.has(b'^')) {
             return Ok(None);
         }
-        if self.m.plane != crate::Plane::XY {
+        if self.m.plane != Plane::XY {
             return Err(self.cycle_err(
                 code10,
                 "cannot use polar coordinates except in the G17 plane",

@@ -41,21 +41,21 @@ pub(crate) mod modal;
 pub mod motion;
 pub(crate) mod oword;
 pub(crate) mod params;
+pub mod program;
 pub(crate) mod splines;
 pub(crate) mod text;
 
 use crate::canon::Canon;
+use crate::cursor::{Cursor, LexError};
 use crate::error::{ParseError, ParseErrorKind, Warning};
 use crate::expr::{read_real_value, ParamLookup, UNKNOWN};
-use crate::lexer::{
-    compact_line, read_block, Assign, AssignTarget, Cursor, LexError, LineBuf, Word,
-};
+use crate::lexer::{compact_line, read_block, Assign, AssignTarget, LineBuf, Word};
 use crate::source::{flags, LineInfo, SourceMap, WriteState};
-use crate::{ParseOptions, ParseStats, Program};
 use block::{Code, N_SLOTS};
 use frames::{Frames, N_AXES};
 use modal::Modal;
 use ncsmooth::path::{Block, Event, EventKind, Toolpath, Units};
+use program::{ParseOptions, ParseStats, Program};
 use std::collections::HashMap;
 use text::{Scan, Text, TextError};
 

@@ -19,7 +19,7 @@ use super::block::{code_name, push_code, push_word, Code};
 use super::frames::{MaybeAxes, ALL_AXES, AXIS_LETTERS, N_AXES, N_SYSTEMS};
 use super::{Interp, MM_PER_INCH};
 use crate::error::{ParseError, ParseErrorKind};
-use crate::Plane;
+use crate::source::Plane;
 use ncsmooth::path::{EventKind, Units};
 
 /// Group-1 code meaning "no motion mode" (after G80), in tenths.

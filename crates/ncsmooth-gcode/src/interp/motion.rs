@@ -38,7 +38,7 @@ use super::modal::MOTION_NONE;
 use super::{axes_vec, Interp, MM_PER_INCH};
 use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind};
-use crate::Plane;
+use crate::source::Plane;
 use ncsmooth::geom::{Arc, Line, Vec3};
 use ncsmooth::path::{EventKind, ExtraAxes, Move, MoveKind, Units, E_AXIS};
 

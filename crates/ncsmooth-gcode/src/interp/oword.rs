@@ -21,9 +21,9 @@
 //! ever), so that a program that never ends is an error rather than a hang.
 
 use super::Interp;
+use crate::cursor::Cursor;
 use crate::error::{ParseError, ParseErrorKind};
 use crate::expr::read_real_value;
-use crate::lexer::Cursor;
 use std::collections::HashMap;
 
 /// Deepest subroutine nesting (LinuxCNC allows 10 in its standard build; deeper nesting is

@@ -66,7 +66,7 @@ use super::{axes_vec, Interp};
 use crate::canon::Canon;
 use crate::error::{ParseError, ParseErrorKind};
 use crate::source::flags;
-use crate::Plane;
+use crate::source::Plane;
 use ncsmooth::geom::{CubicBez, Nurbs, Vec3, MAX_DEGREE};
 use ncsmooth::path::{Block, Move};
 

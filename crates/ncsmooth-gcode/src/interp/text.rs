@@ -13,12 +13,11 @@
 //! one byte for one byte; invalid UTF-8 elsewhere is an error at the first offending byte
 //! ([`crate::parse_bytes`] does the same on a whole buffer).
 
-use crate::error::{locate, ParseError, ParseErrorKind};
+use crate::error::{ParseError, ParseErrorKind};
 use crate::lexer::{compact_line, LineBuf};
 use crate::source::LineInfo;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Seek, SeekFrom};
-use std::ops::Range;
 
 /// Size of the read buffer of a streamed file.
 const READ_BUFFER_BYTES: usize = 1 << 16;
@@ -145,7 +144,7 @@ fn push_utf8_line(
         out.push_str(s);
         return Ok(());
     }
-    let cleaned = crate::non_ascii_comments_replaced(line);
+    let cleaned = super::program::non_ascii_comments_replaced(line);
     match std::str::from_utf8(&cleaned) {
         Ok(s) => {
             out.push_str(s);
@@ -351,21 +350,4 @@ fn index_oline(
         compact: lb.bytes.clone().into_boxed_slice(),
         raw: line.into(),
     });
-}
-
-/// Where `range` of a line is: `(line number, column, range)`. `line` is the text of line
-/// index `k` starting at offset `start`; a range outside it is clamped to it.
-pub(crate) fn locate_in_line(
-    line: &[u8],
-    k: usize,
-    start: usize,
-    range: Range<usize>,
-) -> (u32, u32, Range<usize>) {
-    let rel = range.start.saturating_sub(start)..range.end.saturating_sub(start);
-    let (_, column, r) = locate(line, rel);
-    (
-        u32::try_from(k + 1).unwrap_or(u32::MAX),
-        column,
-        start + r.start..start + r.end,
-    )
 }

@@ -11,10 +11,10 @@
 //! into G1 lines within `chord` (default `0.4 tol` for LinuxCNC, `0.3 tol` for a stepper
 //! dialect, `tol / 10` for a generic controller); `rounding` is the most a point moves when
 //! its coordinates are printed with `decimals` digits (one more in inch programs,
-//! [`crate::rewrite::rounding_mm_for`]); `blend` is `P + Q` of the `G64` written for
+//! [`crate::numbers::rounding_mm_for`]); `blend` is `P + Q` of the `G64` written for
 //! LinuxCNC, the controller's own blending ([`crate::Budget`]). For LinuxCNC's lines the
 //! curves first get `tol - max(chord, P) - rounding` less a margin, and that build is kept
-//! only when the model of the path LinuxCNC executes ([`crate::executed`]) is within
+//! only when the model of the path LinuxCNC executes ([`crate::controller::linuxcnc::executed`]) is within
 //! `tol`; otherwise the program is built again with each part paid in full.
 //!
 //! ## Smooth a program for grbl
@@ -105,7 +105,7 @@ pub struct SmoothJob {
     pub tol_mm: f64,
     /// Flattening chord (mm), in (0, tol). Default `None`: by dialect (module doc).
     pub chord_mm: Option<f64>,
-    /// Decimals of the written coordinates (at most [`crate::writer::MAX_DECIMALS`]).
+    /// Decimals of the written coordinates (at most [`crate::numbers::MAX_DECIMALS`]).
     /// Default 4.
     pub decimals: usize,
     /// The controller written for. Default [`Dialect::LinuxCnc`].

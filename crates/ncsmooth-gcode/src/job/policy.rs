@@ -20,7 +20,7 @@ pub(crate) const VERBATIM_BLEND_SHARE: f64 = 0.95;
 /// LinuxCNC's blend at a junction has a tolerance of at most a quarter of each line
 /// (blendmath.c `tcFindBlendTolerance`): with an acceleration, a written block shorter
 /// than this many times the run's `P` is replaced by the programmed corner where the
-/// tolerance allows ([`crate::rewrite::CornerBlend`]).
+/// tolerance allows ([`crate::controller::linuxcnc::CornerBlend`]).
 pub(crate) const LINUXCNC_CORNER_FLOOR_P: f64 = 4.0;
 /// Share LinuxCNC's blending may use (`G64 P`). Its blend at a vertex of a curve
 /// flattened within `chord` follows the curve's own radius once `P` reaches the chord
@@ -65,7 +65,7 @@ pub(crate) enum BudgetRule {
     /// `tol - chord - rounding - (P + Q)`: each part paid in full.
     Sum,
     /// `tol - max(chord, P) - rounding - margin - less_mm`, accepted only when the model
-    /// of the path LinuxCNC executes ([`crate::executed`]) is within tol. LinuxCNC's blend
+    /// of the path LinuxCNC executes ([`crate::controller::linuxcnc::executed`]) is within tol. LinuxCNC's blend
     /// at a vertex of a flattened curve cuts inside it by at most `P`, where the chord is
     /// on the curve; between vertices the chord departs from it by at most `chord`, where
     /// the blends have left the line: the two do not add (a circle flattened within `c`

@@ -94,7 +94,7 @@ pub struct BlendReport {
     /// `verbatim_p_mm` where larger).
     pub executed_bound_mm: f64,
     /// The deviation of the path LinuxCNC executes by its blending model
-    /// ([`crate::executed`]), largest of both sides (mm).
+    /// ([`crate::controller::linuxcnc::executed`]), largest of both sides (mm).
     pub executed_model_mm: f64,
     /// Junctions whose blend the model follows, and junctions counted as the written
     /// deviation plus `p + q`.

@@ -5,8 +5,9 @@ use super::policy::*;
 use super::report::{BlendReport, BlockReport, SmoothRunReport, Timings};
 use super::{EmitStyle, JobError, SmoothJob, Smoothed};
 use crate::budget::{read_back_with, read_written_with, Budget};
-use crate::executed::Executed;
-use crate::rewrite::{Blend, BlockFloor, CornerBlend, Emit};
+use crate::controller::linuxcnc::executed::Executed;
+use crate::controller::linuxcnc::{Blend, CornerBlend};
+use crate::write::rewrite::{BlockFloor, Emit};
 use crate::{Program, RewriteOptions};
 use ncsmooth::smooth::band_fit::BandFitOptions;
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
@@ -104,7 +105,8 @@ impl SmoothJob {
         };
         let wopts = self.rewrite_options(name, &shares, rule, emit);
         let write = |tp: &Toolpath| {
-            crate::rewrite(src, program, tp, &wopts).map_err(|e| JobError::Write(e.to_string()))
+            crate::write::rewrite::rewrite(src, program, tp, &wopts)
+                .map_err(|e| JobError::Write(e.to_string()))
         };
         let gcode = write(&curves.toolpath)?;
         t.write_s = t0.elapsed().as_secs_f64();
@@ -307,7 +309,7 @@ impl SmoothJob {
         let floor = dialect.block_floor_mm().is_some()
             && matches!(emit, EmitStyle::Lines | EmitStyle::G5 | EmitStyle::Nurbs);
         let (min_block_mm, min_block_s) = (dialect.min_block_mm(0.0), dialect.min_block_s());
-        RewriteOptions::new(self.decimals.min(crate::writer::MAX_DECIMALS), s.chord)
+        RewriteOptions::new(self.decimals.min(crate::numbers::MAX_DECIMALS), s.chord)
             .with_header(format!(
                 "ncsmooth {} --method {} --tol {tol} --dialect {} (from {name})",
                 env!("CARGO_PKG_VERSION"),
@@ -405,7 +407,7 @@ impl SmoothJob {
             (Some(b), false) => {
                 let written = crate::parse_bytes(gcode, name, opts).map_err(unreadable)?;
                 let cap = s.verbatim_blend.map_or(b.p_mm, |v| v.p_mm.max(b.p_mm));
-                Some(crate::executed::linuxcnc_executed(
+                Some(crate::controller::linuxcnc::executed::linuxcnc_executed(
                     &written,
                     &program.toolpath,
                     &dev,

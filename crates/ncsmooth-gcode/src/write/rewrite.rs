@@ -24,298 +24,24 @@
 //! pinned move ([`Move::pinned`]) that comes back changed is an error
 //! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
 
-use crate::source::{flags, LineInfo, PathMode, WriteState};
-use crate::writer::{
-    push_fixed, ChainMode, Floor, Frame, MotionWriter, RunEnd, RunEnds, MAX_DECIMALS,
-};
-use crate::{Plane, Program};
+use super::frame::{ChainMode, Frame};
+use super::motion::MotionWriter;
+use crate::controller::floor::Floor;
+use crate::controller::linuxcnc::blend::{BlendSchedule, RunEnd, RunEnds};
+use crate::controller::linuxcnc::g64::{blend_text, path_mode_text, push_blend_line};
+use crate::controller::linuxcnc::Blend;
+use crate::interp::program::Program;
+use crate::numbers::{push_fixed, unit_mm};
+use crate::source::{flags, LineInfo, PathMode, Plane, WriteState};
 use ncsmooth::geom::{
     Arc, Flatten, Line, ParamCurve, ParamCurveArclen, ParamCurveNearest, Segment, Vec3,
 };
-use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath, Units};
+use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 
-/// Settings of [`rewrite()`].
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub struct RewriteOptions {
-    /// Digits after the point for coordinates in millimetre programs (inch programs get
-    /// one more). Default 4.
-    pub decimals: usize,
-    /// Chord tolerance (mm) for flattening curves G-code cannot carry. Default 0.001.
-    pub chord_mm: f64,
-    /// Comment lines written at the end of the file (after its last line, past the `M2` or
-    /// closing `%` where the controller stops reading), each as a `;` comment. At the end
-    /// they leave the numbers of the program's lines unchanged up to the first smoothed
-    /// one, which a program may read (`#<_line>`) and a controller's messages quote.
-    /// Default none.
-    pub header: Option<String>,
-    /// How smoothed motion is written. Default [`Emit::Native`].
-    pub emit: Emit,
-    /// LinuxCNC blending to allow on the replaced motion (`G64 P Q` before each replaced
-    /// run); `None` writes no path control mode. Default `None`.
-    pub blend: Option<Blend>,
-    /// With [`RewriteOptions::blend`]: LinuxCNC blending for the program's own rapids that
-    /// are copied verbatim, where the program's own mode is looser: set before a stretch
-    /// of copied lines that moves only at rapid. Those moves are the programmed path
-    /// itself, so their blending may take the whole tolerance, not what is left of it
-    /// after the smoothing; LinuxCNC blends a junction with the smaller `P` of its two
-    /// moves (tc.c `tcFindBlendTolerance`), so a run's ends keep the run's bound. Copied
-    /// feed lines keep the runs' bound: LinuxCNC 2.9 accelerated cncjs_jsdc's opening
-    /// 52 mm G1 line, joined by an arc blend under `P0.0095`, at half the rate (0.09 s
-    /// slower than under `P0.001`). Default `None`: the runs' `blend` everywhere.
-    pub verbatim_blend: Option<Blend>,
-    /// Planes in which arcs may be written as `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2
-    /// G19); arcs in other planes are flattened. Default all.
-    pub arc_planes: u8,
-    /// Whether the controller runs a `G2`/`G3` whose end is off the circle of its start as
-    /// LinuxCNC does, a spiral about the programmed centre ([`crate::Dialect::runs_spirals`]).
-    /// When false, a spiral arc whose radii differ by more than half the chord tolerance
-    /// is flattened. Default true.
-    pub spiral_arcs: bool,
-    /// Write every replaceable line with feed motion through the emitter, changed or not
-    /// (compressing a program's own G1 runs with [`Emit::Lines`] or [`Emit::Arcs`]); a
-    /// line of rapids only is copied (a rapid is the program's). Default false: unchanged
-    /// lines are copied verbatim.
-    pub rewrite_unchanged: bool,
-    /// Under [`Emit::Lines`], [`Emit::G5`] and [`Emit::Nurbs`]: blocks shorter than the
-    /// floor are lifted where the written path stays within its tolerance of the
-    /// programmed path ([`crate::chain::lift_short_blocks`]). Default `None`.
-    pub block_floor: Option<BlockFloor>,
-    /// Under the chaining emitters, an arc that would take
-    /// [`crate::writer::NATIVE_ARC_MIN_BLOCKS`] chords stays one `G2`/`G3`; `false`
-    /// flattens it with the rest of its run where it meets a flattened curve
-    /// ([`crate::Dialect::keeps_long_arcs`]). Default true.
-    pub long_arcs: bool,
-    /// With [`RewriteOptions::blend`]: the machine's acceleration (mm/s^2). Blocks where
-    /// the speed allows then get a smaller `P` ([`crate::writer::BlendSchedule`]),
-    /// so that LinuxCNC's blends leave their lines, along which it accelerates with the
-    /// whole of it. Default `None`: one `P` for the whole run.
-    pub blend_acc_mm_s2: Option<f64>,
-    /// With [`RewriteOptions::blend`] and a long-lines emitter: the blocks of a chain are
-    /// evened out for LinuxCNC's blends, which take at most half of each line
-    /// ([`crate::chain::even_out`]), a point moved inside the curve by no more than its
-    /// blend leaves of `P`. Default false.
-    pub even_out: bool,
-    /// With [`RewriteOptions::blend_acc_mm_s2`]: the machine's fastest feed (mm/s), which
-    /// the blends are sized for. Default `None`: the programmed feeds.
-    pub blend_feed_mm_s: Option<f64>,
-}
-
-/// The shortest block a stepper controller should be given, and the tolerance against
-/// the programmed path within which shorter ones may be lifted.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BlockFloor {
-    /// Shortest block (mm).
-    pub min_block_mm: f64,
-    /// Two-sided tolerance (mm) of the written path against the programmed one: what is
-    /// left of the user's tolerance after the printed decimals and any blending.
-    pub tol_mm: f64,
-    /// LinuxCNC: short blocks are replaced only by the programmed corner, whose blend
-    /// gets a `P` of its own, as do tight turns where the tolerance leaves room (`None`:
-    /// every replacement, for a stepper controller).
-    pub corner: Option<CornerBlend>,
-}
-
-/// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`]):
-/// a programmed corner put in place of short blocks, and a point whose speed needs all of
-/// the run's `P` (a tight turn), may have their blends take what the tolerance leaves
-/// after the lines beside them (the writer's `vertex_room`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CornerBlend {
-    /// The tolerance less the printed decimals, and less a share left to whoever
-    /// measures the blends from servo samples (mm): the blend's `P` and the lines'
-    /// deviation where it runs share it.
-    pub total_mm: f64,
-    /// Largest `P` to write (mm), within what the model of the executed path caps.
-    pub max_p_mm: f64,
-}
-
-/// Accuracy of the programmed curves' flattening for [`BlockFloor`], as a share of its
-/// tolerance (deducted from it).
-pub const FLOOR_PROGRAM_SHARE: f64 = 0.01;
-
-impl Default for RewriteOptions {
-    fn default() -> Self {
-        RewriteOptions {
-            decimals: 4,
-            chord_mm: 0.001,
-            header: None,
-            emit: Emit::Native,
-            blend: None,
-            verbatim_blend: None,
-            arc_planes: 0b111,
-            spiral_arcs: true,
-            rewrite_unchanged: false,
-            block_floor: None,
-            long_arcs: true,
-            blend_acc_mm_s2: None,
-            blend_feed_mm_s: None,
-            even_out: false,
-        }
-    }
-}
-
-/// How smoothed motion is written.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum Emit {
-    /// Move by move: lines as `G1`, arcs in a G-code plane as `G2`/`G3`, every other curve
-    /// flattened on its own within the chord.
-    Native,
-    /// Each run of feed moves at one feed (lines, arcs and curves alike) as the longest
-    /// `G1` blocks whose chord, rounding included, stays within the chord tolerance
-    /// ([`crate::chain`]); `E` is carried along the blocks ([`crate::chain_extra`]), moves
-    /// with other extra axes (A..W) are written move by move.
-    Lines {
-        /// A last block of a run shorter than `min_block_mm`, or than the run's feed
-        /// times `min_block_s`, is merged or balanced with the one before when the
-        /// tolerance allows.
-        min_block_mm: f64,
-        /// See `min_block_mm` (seconds of feed).
-        min_block_s: f64,
-    },
-    /// As [`Emit::Lines`], with arcs: from each written point the longer of the longest
-    /// line and the longest XY arc (`G2`/`G3`, helical when Z changes) within the chord
-    /// of every point and every chord it spans ([`crate::chain::fit_arcs`]).
-    Arcs,
-    /// As [`Emit::Lines`], with every cubic Bézier in an XY plane (the B-spline method's
-    /// curves) written exactly as one `G5` (LinuxCNC, grblHAL, Marlin).
-    G5 {
-        /// See [`Emit::Lines`].
-        min_block_mm: f64,
-        /// See [`Emit::Lines`].
-        min_block_s: f64,
-    },
-    /// As [`Emit::G5`], with every NURBS in an XY plane (the NURBS method's curves)
-    /// written exactly as `G5.2 ... G5.3`, one per Bézier span (LinuxCNC).
-    Nurbs {
-        /// See [`Emit::Lines`].
-        min_block_mm: f64,
-        /// See [`Emit::Lines`].
-        min_block_s: f64,
-    },
-}
-
-/// LinuxCNC blending allowed on the written motion: `G64 P<p> Q<q>` is written before
-/// each replaced run, so the controller's blending (`P`) and naive-CAM merging (`Q`) add
-/// at most `p + q` to the deviation of the written path.
-///
-/// After the run the program's own mode is restored when it is at least as tight as the
-/// bound of the copied lines that follow (this one, or [`RewriteOptions::verbatim_blend`]
-/// before a stretch of rapids): `G61`, `G61.1`, or a `G64` whose `P + Q` is within it. A
-/// looser mode (LinuxCNC's start-up `G64` without `P`, or a larger `P`) is not restored:
-/// that bound is written instead, so the blending of the moves that follow stays bounded
-/// until the program sets a mode of its own.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Blend {
-    /// Blend tolerance `P` (mm), positive.
-    pub p_mm: f64,
-    /// Naive-CAM tolerance `Q` (mm), positive.
-    pub q_mm: f64,
-}
-
-impl RewriteOptions {
-    /// Options with `decimals` and `chord_mm`.
-    pub fn new(decimals: usize, chord_mm: f64) -> RewriteOptions {
-        RewriteOptions {
-            decimals,
-            chord_mm,
-            ..Default::default()
-        }
-    }
-
-    /// The same options with another emitter.
-    pub fn with_emit(self, emit: Emit) -> RewriteOptions {
-        RewriteOptions { emit, ..self }
-    }
-
-    /// The same options for `dialect`: its arc planes, whether it keeps long arcs and,
-    /// when it blends, `blend`.
-    pub fn for_dialect(self, dialect: crate::Dialect, blend: Option<Blend>) -> RewriteOptions {
-        RewriteOptions {
-            arc_planes: dialect.arc_planes(),
-            spiral_arcs: dialect.runs_spirals(),
-            long_arcs: dialect.keeps_long_arcs(),
-            blend: if dialect.blends() { blend } else { None },
-            ..self
-        }
-    }
-
-    /// The same options with [`RewriteOptions::rewrite_unchanged`] set to `all`.
-    pub fn with_rewrite_unchanged(self, all: bool) -> RewriteOptions {
-        RewriteOptions {
-            rewrite_unchanged: all,
-            ..self
-        }
-    }
-
-    /// The same options with a block floor.
-    pub fn with_block_floor(self, block_floor: Option<BlockFloor>) -> RewriteOptions {
-        RewriteOptions {
-            block_floor,
-            ..self
-        }
-    }
-
-    /// The same options with LinuxCNC blending bounds.
-    pub fn with_blend(self, blend: Option<Blend>) -> RewriteOptions {
-        RewriteOptions { blend, ..self }
-    }
-
-    /// The same options with LinuxCNC blending for the verbatim motion
-    /// ([`RewriteOptions::verbatim_blend`]).
-    pub fn with_verbatim_blend(self, verbatim_blend: Option<Blend>) -> RewriteOptions {
-        RewriteOptions {
-            verbatim_blend,
-            ..self
-        }
-    }
-
-    /// The blending in force on verbatim motion: `None` when nothing blends.
-    fn verbatim_blend_in_force(&self) -> Option<Blend> {
-        self.blend.map(|b| self.verbatim_blend.unwrap_or(b))
-    }
-
-    /// The same options with the machine's acceleration and fastest feed for the
-    /// blending schedule ([`RewriteOptions::blend_acc_mm_s2`]).
-    pub fn with_blend_limits(
-        self,
-        acc_mm_s2: Option<f64>,
-        feed_mm_s: Option<f64>,
-    ) -> RewriteOptions {
-        RewriteOptions {
-            blend_acc_mm_s2: acc_mm_s2,
-            blend_feed_mm_s: feed_mm_s,
-            ..self
-        }
-    }
-
-    /// The same options with [`RewriteOptions::even_out`] set.
-    pub fn with_even_out(self, even_out: bool) -> RewriteOptions {
-        RewriteOptions { even_out, ..self }
-    }
-
-    /// The same options with header lines.
-    pub fn with_header(self, header: impl Into<String>) -> RewriteOptions {
-        RewriteOptions {
-            header: Some(header.into()),
-            ..self
-        }
-    }
-}
-
-/// Decimals written in `units` for `decimals` millimetre decimals.
-pub fn decimals_for(units: Units, decimals: usize) -> usize {
-    match units {
-        Units::Millimetres => decimals,
-        Units::Inches => (decimals + 1).min(MAX_DECIMALS),
-    }
-}
-
-/// Largest distance (mm) a point moves when written with `decimals` in `units`.
-pub fn rounding_mm_for(units: Units, decimals: usize) -> f64 {
-    crate::writer::rounding_mm(decimals_for(units, decimals)) * unit_mm(units)
-}
+mod options;
+pub use options::*;
+// compatibility path: `rewrite::{decimals_for, rounding_mm_for}`
+pub use crate::numbers::{decimals_for, rounding_mm_for};
 
 /// Why a rewrite is impossible (a bug in what produced the toolpath, never bad input).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -673,47 +399,13 @@ pub fn rewrite(
     };
     let extra_mask = program.toolpath.extra_axes_mask;
     let extra_before = extra_before_lines(&program.toolpath, lines.len());
-    let resets_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
-        matches!(k, EventKind::ExtraReset { .. })
-    });
-    // Motions the interpreter could not place (a move from an unknown position): LinuxCNC
-    // runs and blends them, so a run next to one does not start or end at rest.
-    let untracked_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
-        matches!(k, EventKind::Untracked { .. })
-    });
-    let setters_before = extra_events_before_lines(&program.toolpath, lines.len(), |k| {
-        matches!(
-            k,
-            EventKind::ExtraMove { .. }
-                | EventKind::ExtraReset { .. }
-                | EventKind::Untracked { extra: Some(_) }
-        )
-    });
+    let (resets_before, untracked_before, setters_before) =
+        events_before_lines(&program.toolpath, lines.len());
     // Relative E: what the last run's written increments left the machine ahead of the
     // program, and the resets before the line it closed at.
     let mut e_carry: (f64, u32) = (0.0, 0);
     let mut s: Vec<u8> = Vec::with_capacity(src.len() + src.len() / 4 + 256);
-    let write_header = |s: &mut Vec<u8>| {
-        if let Some(h) = &opts.header {
-            for l in h.lines() {
-                s.extend_from_slice(b"; ");
-                s.extend_from_slice(l.as_bytes());
-                s.extend_from_slice(eol.as_bytes());
-            }
-        }
-    };
-    let mut changed = vec![false; lines.len()];
-    for (i, info) in lines.iter().enumerate() {
-        let o = &orig[orig_by[i].0..orig_by[i].1];
-        let w = &out[out_by[i].0..out_by[i].1];
-        changed[i] = !same_moves(o, w)
-            || (opts.rewrite_unchanged
-                && info.has(flags::REPLACEABLE)
-                && w.iter().any(|m| !m.is_rapid()));
-        if changed[i] && !info.has(flags::REPLACEABLE) {
-            return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
-        }
-    }
+    let changed = changed_lines(lines, (&orig, &orig_by), (&out, &out_by), opts)?;
     // The first smoothed move of the run of changed lines starting at `i` (its index).
     let first_move = |i: usize| {
         (i..lines.len())
@@ -740,7 +432,7 @@ pub fn rewrite(
         }
     };
     let mut region: Option<Region> = None;
-    let mut runs_bound_over: Option<crate::source::PathMode> = None;
+    let mut runs_bound_over: Option<PathMode> = None;
     // Motion code the next modal-motion line must be given, after a region.
     let mut pending_motion: Option<u16> = None;
     let rapids = rapids_ahead(lines, &orig, &orig_by, &changed);
@@ -802,26 +494,9 @@ pub fn rewrite(
                 }
                 runs_bound_over = None;
             }
-            match pending_motion {
-                Some(code) if info.has(flags::MODAL_MOTION) => {
-                    let at = motion_prefix_at(text);
-                    s.extend_from_slice(&text[..at]);
-                    s.extend_from_slice(motion_text(code).as_bytes());
-                    s.push(b' ');
-                    s.extend_from_slice(&text[at..]);
-                    pending_motion = None;
-                }
-                _ => {
-                    if info.has(flags::EXPLICIT_MOTION) {
-                        pending_motion = None;
-                    }
-                    s.extend_from_slice(text);
-                }
-            }
             let last_line = i + 1 == lines.len();
-            if !last_line || src.ends_with(b"\n") {
-                s.push(b'\n');
-            }
+            let newline = !last_line || src.ends_with(b"\n");
+            copy_line(&mut s, text, info, &mut pending_motion, newline);
         }
     }
     if let Some(mut r) = region.take() {
@@ -832,8 +507,93 @@ pub fn rewrite(
     if opts.header.is_some() && !(s.is_empty() || s.ends_with(b"\n")) {
         s.extend_from_slice(eol.as_bytes());
     }
-    write_header(&mut s);
+    write_header(&mut s, opts, eol);
     Ok(s)
+}
+
+/// Per line, the events before it ([`extra_events_before_lines`]) that the runs depend on:
+/// the extra-axis resets, the untracked motions and the events that set extra axes.
+fn events_before_lines(tp: &Toolpath, n_lines: usize) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let resets_before =
+        extra_events_before_lines(tp, n_lines, |k| matches!(k, EventKind::ExtraReset { .. }));
+    // Motions the interpreter could not place (a move from an unknown position): LinuxCNC
+    // runs and blends them, so a run next to one does not start or end at rest.
+    let untracked_before =
+        extra_events_before_lines(tp, n_lines, |k| matches!(k, EventKind::Untracked { .. }));
+    let setters_before = extra_events_before_lines(tp, n_lines, |k| {
+        matches!(
+            k,
+            EventKind::ExtraMove { .. }
+                | EventKind::ExtraReset { .. }
+                | EventKind::Untracked { extra: Some(_) }
+        )
+    });
+    (resets_before, untracked_before, setters_before)
+}
+
+/// Appends the options' header, one `; ` comment line per line.
+fn write_header(s: &mut Vec<u8>, opts: &RewriteOptions, eol: &str) {
+    if let Some(h) = &opts.header {
+        for l in h.lines() {
+            s.extend_from_slice(b"; ");
+            s.extend_from_slice(l.as_bytes());
+            s.extend_from_slice(eol.as_bytes());
+        }
+    }
+}
+
+/// Per line, whether its moves are replaced: they changed, or (with
+/// [`RewriteOptions::rewrite_unchanged`]) it is replaceable and feeds. A line that may not
+/// be replaced and changed is an error.
+fn changed_lines(
+    lines: &[LineInfo],
+    (orig, orig_by): (&[&Move], &[(usize, usize)]),
+    (out, out_by): (&[&Move], &[(usize, usize)]),
+    opts: &RewriteOptions,
+) -> Result<Vec<bool>, RewriteError> {
+    let mut changed = vec![false; lines.len()];
+    for (i, info) in lines.iter().enumerate() {
+        let o = &orig[orig_by[i].0..orig_by[i].1];
+        let w = &out[out_by[i].0..out_by[i].1];
+        changed[i] = !same_moves(o, w)
+            || (opts.rewrite_unchanged
+                && info.has(flags::REPLACEABLE)
+                && w.iter().any(|m| !m.is_rapid()));
+        if changed[i] && !info.has(flags::REPLACEABLE) {
+            return Err(RewriteError::PinnedChanged { line: i as u32 + 1 });
+        }
+    }
+    Ok(changed)
+}
+
+/// Copies the line `text` (of `info`), with the motion code a region left pending put in
+/// front of its words when it is a modal-motion line, and `\n` after it when `newline`.
+fn copy_line(
+    s: &mut Vec<u8>,
+    text: &[u8],
+    info: &LineInfo,
+    pending_motion: &mut Option<u16>,
+    newline: bool,
+) {
+    match *pending_motion {
+        Some(code) if info.has(flags::MODAL_MOTION) => {
+            let at = motion_prefix_at(text);
+            s.extend_from_slice(&text[..at]);
+            s.extend_from_slice(motion_text(code).as_bytes());
+            s.push(b' ');
+            s.extend_from_slice(&text[at..]);
+            *pending_motion = None;
+        }
+        _ => {
+            if info.has(flags::EXPLICIT_MOTION) {
+                *pending_motion = None;
+            }
+            s.extend_from_slice(text);
+        }
+    }
+    if newline {
+        s.push(b'\n');
+    }
 }
 
 /// Per line, the program's extra-axis values before its first block (a move's values
@@ -976,52 +736,12 @@ struct Region<'a> {
 /// the lines it is written on when a comment or other unchanged line ends the run.
 const FLOOR_CONTEXT_MOVES: usize = 8;
 
-/// `G64 P Q` for `blend` in a program in `units` ([`crate::writer::blend_words`]).
-fn blend_text(blend: Blend, units: Units, decimals: usize) -> String {
-    crate::writer::blend_words(blend.p_mm, blend.q_mm, unit_mm(units), decimals)
-}
-
-/// Appends [`blend_text`] as a line of its own (`decimals`: the options' decimals).
-fn push_blend_line(s: &mut Vec<u8>, blend: Blend, units: Units, decimals: usize, eol: &str) {
-    let text = blend_text(blend, units, decimals_for(units, decimals));
-    s.extend_from_slice(text.as_bytes());
-    s.extend_from_slice(eol.as_bytes());
-}
-
-/// The text that sets path mode `mode` in a program in `units`, if it can be written.
-fn path_mode_text(mode: PathMode, units: Units) -> Option<String> {
-    let scale = unit_mm(units);
-    match mode {
-        PathMode::Unset => None,
-        PathMode::ExactPath => Some("G61".into()),
-        PathMode::ExactStop => Some("G61.1".into()),
-        PathMode::Blend { p_mm, q_mm } => {
-            let mut t = String::from("G64");
-            for (l, v) in [(" P", p_mm), (" Q", q_mm)] {
-                if v.is_finite() {
-                    t.push_str(l);
-                    push_fixed(&mut t, v / scale, MAX_DECIMALS);
-                }
-            }
-            Some(t)
-        }
-    }
-}
-
 /// Whether `emit` writes runs as long G1 blocks (where a block floor applies).
 fn frame_chains_lines(emit: Emit) -> bool {
     matches!(
         emit,
         Emit::Lines { .. } | Emit::G5 { .. } | Emit::Nurbs { .. }
     )
-}
-
-/// Millimetres per unit of `units`.
-fn unit_mm(units: Units) -> f64 {
-    match units {
-        Units::Millimetres => 1.0,
-        Units::Inches => 25.4,
-    }
 }
 
 impl<'a> Region<'a> {
@@ -1191,14 +911,15 @@ impl<'a> Region<'a> {
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);
         w.blend_p_mm = opts.blend.filter(|_| opts.even_out).map(|b| b.p_mm);
-        w.blend_schedule = opts.blend.zip(opts.blend_acc_mm_s2).map(|(b, acc_mm_s2)| {
-            crate::writer::BlendSchedule {
-                p_mm: b.p_mm,
-                q_mm: b.q_mm,
-                acc_mm_s2,
-                feed_max_mm_s: opts.blend_feed_mm_s.unwrap_or(f64::INFINITY),
-            }
-        });
+        w.blend_schedule =
+            opts.blend
+                .zip(opts.blend_acc_mm_s2)
+                .map(|(b, acc_mm_s2)| BlendSchedule {
+                    p_mm: b.p_mm,
+                    q_mm: b.q_mm,
+                    acc_mm_s2,
+                    feed_max_mm_s: opts.blend_feed_mm_s.unwrap_or(f64::INFINITY),
+                });
         if let Some(m) = first {
             // Extra axes in use and known (E is always tracked from 0).
             let known_extra = ((st.known >> 3) & 0x3f) as u8 | 0x40;

@@ -56,8 +56,8 @@
 //! `G64`, on its own lines, is the program's: the model caps every `P` at the largest one
 //! the writer gives (`cap_mm`).
 
+use crate::interp::program::Program;
 use crate::source::PathMode;
-use crate::Program;
 use ncsmooth::geom::{Line, ParamCurve, Segment, Vec3};
 use ncsmooth::path::MoveKind;
 use ncsmooth::verify::{Deviation, PathIndex};

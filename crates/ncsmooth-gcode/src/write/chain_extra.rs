@@ -24,7 +24,7 @@
 //! moves it spans, all within [`EXTRA_RATE_VARIANCE`] of each other. Only the position
 //! is held to the tolerance in millimetres; the extra axes are not a length of the path.
 
-use crate::chain::seg_dist;
+use crate::polyline::seg_dist;
 use ncsmooth::geom::Vec3;
 #[cfg(doc)]
 use ncsmooth::path::EXTRA_RATE_VARIANCE;
