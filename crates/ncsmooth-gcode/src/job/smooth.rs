@@ -5,6 +5,7 @@ use super::policy::*;
 use super::report::{BlendReport, BlockReport, SmoothRunReport, Timings};
 use super::{EmitStyle, JobError, SmoothJob, Smoothed};
 use crate::budget::{read_back_with, read_written_with, Budget};
+use crate::controller::linuxcnc::budget::*;
 use crate::controller::linuxcnc::executed::Executed;
 use crate::controller::linuxcnc::{Blend, CornerBlend};
 use crate::write::rewrite::{BlockFloor, Emit};

@@ -1,8 +1,10 @@
-//! LinuxCNC as a model: the `G64 P Q` it is given ([`Blend`], [`g64`]), the blend schedule
+//! LinuxCNC as a model: the `G64 P Q` it is given ([`Blend`], [`g64`]) and its share of
+//! the tolerance (`budget`), the blend schedule
 //! that sizes a smaller `P` where the speed allows ([`blend`]), evening out a chain's
 //! blocks ([`even_out`]) and the path it executes ([`executed`]).
 
 pub mod blend;
+pub(crate) mod budget;
 pub mod even_out;
 pub mod executed;
 pub mod g64;
