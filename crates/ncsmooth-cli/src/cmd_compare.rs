@@ -37,14 +37,8 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Methods compared, in order (`none` first: the reference of the speed-up).
-pub const METHODS: [Method; 5] = [
-    Method::None,
-    Method::Bspline,
-    Method::Arc,
-    Method::Nurbs,
-    Method::Trig,
-];
+/// Methods compared, in the table's order (`none` first: the reference of the speed-up).
+pub const METHODS: [Method; Method::ALL.len()] = Method::ALL;
 /// Decimals of the written G-code (`smooth`'s default).
 const DECIMALS: usize = 4;
 /// Write buffer of a setpoint file (bytes).

@@ -14,9 +14,9 @@
 //! (`--junction-dev` corners that were blended, `--no-arc-correction`): then the run
 //! succeeds and says which limits were exceeded.
 
-use crate::cmd_smooth::MethodArg;
 use crate::io::OutputFile;
 use crate::plan_stream::StreamedInput;
+use crate::table_arg::MethodArg;
 use crate::{io, load, progress, Ui};
 use anyhow::Result;
 use clap::{Args, ValueEnum};

@@ -2,6 +2,7 @@
 //! within a two-sided tolerance, write it for a controller, verify the written text), its
 //! messages and its files (G-code and an optional JSON report), written all or nothing.
 
+use crate::table_arg::{DialectArg, MethodArg};
 use crate::{io, load, Ui};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -20,33 +21,6 @@ const FILTER_PROGRESS_PARSED: u32 = 20;
 const FILTER_PROGRESS_VERIFIED: u32 = 95;
 /// Largest `--decimals`.
 const MAX_DECIMALS: usize = ncsmooth_gcode::writer::MAX_DECIMALS;
-
-/// Smoothing method names.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    /// No smoothing (the program as written).
-    None,
-    /// Cubic B-spline corner transitions in a tolerance band (Guo et al.).
-    Bspline,
-    /// Circular-arc corner transitions (Wu et al.), runs of micro-lines as arc splines.
-    Arc,
-    /// NURBS fitting of micro-line runs plus arc corners (Wu et al.).
-    Nurbs,
-    /// Cubic trigonometric spline (Tao et al.).
-    Trig,
-}
-
-impl From<MethodArg> for Method {
-    fn from(m: MethodArg) -> Method {
-        match m {
-            MethodArg::None => Method::None,
-            MethodArg::Bspline => Method::Bspline,
-            MethodArg::Arc => Method::Arc,
-            MethodArg::Nurbs => Method::Nurbs,
-            MethodArg::Trig => Method::Trig,
-        }
-    }
-}
 
 /// Corner treatment names of `--method trig`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -138,36 +112,6 @@ pub struct SmoothArgs {
     pub time_shape: bool,
 }
 
-/// Dialect names.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DialectArg {
-    /// LinuxCNC (RS274/NGC).
-    Linuxcnc,
-    /// grbl 1.1.
-    Grbl,
-    /// grblHAL.
-    Grblhal,
-    /// Marlin.
-    Marlin,
-    /// Klipper.
-    Klipper,
-    /// Any controller that runs the written path exactly.
-    Generic,
-}
-
-impl From<DialectArg> for Dialect {
-    fn from(d: DialectArg) -> Dialect {
-        match d {
-            DialectArg::Linuxcnc => Dialect::LinuxCnc,
-            DialectArg::Grbl => Dialect::Grbl,
-            DialectArg::Grblhal => Dialect::GrblHal,
-            DialectArg::Marlin => Dialect::Marlin,
-            DialectArg::Klipper => Dialect::Klipper,
-            DialectArg::Generic => Dialect::Generic,
-        }
-    }
-}
-
 /// Emitter names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum EmitArg {
@@ -222,7 +166,7 @@ impl SmoothArgs {
             ..Default::default()
         };
         if self.corner == CornerArg::Loop {
-            if self.method != MethodArg::Trig {
+            if self.method.0 != Method::Trig {
                 return Err(io::BadInput("--corner loop needs --method trig".into()).into());
             }
             let size = self.loop_size.unwrap_or(f64::NAN);
@@ -290,7 +234,7 @@ pub fn run(a: SmoothArgs, ui: Ui) -> Result<()> {
     io::check_outputs(Some(&a.file), &outputs)?;
     // As a LinuxCNC filter (`[FILTER] PROGRAM_EXTENSION`, program on stdout) the progress
     // goes to stderr as `FILTER_PROGRESS=N` lines, which LinuxCNC shows as a bar.
-    let filter = a.output.as_os_str() == "-" && a.dialect == DialectArg::Linuxcnc && !ui.quiet;
+    let filter = a.output.as_os_str() == "-" && a.dialect.0 == Dialect::LinuxCnc && !ui.quiet;
     let progress = |percent: u32| {
         if filter {
             crate::diag::say(format_args!("FILTER_PROGRESS={percent}"));

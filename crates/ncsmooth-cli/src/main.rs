@@ -19,6 +19,7 @@ mod diag;
 mod io;
 mod plan_stream;
 mod progress;
+mod table_arg;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

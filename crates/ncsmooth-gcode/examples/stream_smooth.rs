@@ -33,14 +33,9 @@ fn main() {
         eprintln!("usage: stream_smooth FILE [METHOD] [TOL_MM] [WINDOW_MOVES]");
         std::process::exit(2);
     };
-    let method = match args.get(2).map_or("bspline", String::as_str) {
-        "none" => Method::None,
-        "bspline" => Method::Bspline,
-        "arc" => Method::Arc,
-        "nurbs" => Method::Nurbs,
-        "trig" => Method::Trig,
-        m => exit_bad(&format!("unknown method {m}")),
-    };
+    let name = args.get(2).map_or("bspline", String::as_str);
+    let method =
+        Method::from_name(name).unwrap_or_else(|| exit_bad(&format!("unknown method {name}")));
     let tol_mm: f64 = args
         .get(3)
         .map_or(Ok(0.01), |t| t.parse())

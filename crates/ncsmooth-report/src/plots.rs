@@ -46,15 +46,19 @@ const CURVATURE_FLOOR_PER_MM: f64 = 1e-4;
 /// Axis colours (x, y, z).
 const AXIS_COLORS: [&str; 3] = ["#1f77b4", "#d62728", "#2ca02c"];
 
-/// The colour of a method.
+/// Method colours, in [`ncsmooth::Method::ALL`]'s order; a method past the end of the
+/// palette gets its colours again from the start.
+const METHOD_PALETTE: [&str; 6] = [
+    "#7f7f7f", "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+];
+/// The colour of a name that is no method.
+const OTHER_COLOR: &str = "#9467bd";
+
+/// The colour of a method, by its place in [`ncsmooth::Method::ALL`].
 pub fn method_color(name: &str) -> &'static str {
-    match name {
-        "none" => "#7f7f7f",
-        "bspline" => "#1f77b4",
-        "arc" => "#ff7f0e",
-        "nurbs" => "#2ca02c",
-        "trig" => "#d62728",
-        _ => "#9467bd",
+    match ncsmooth::Method::ALL.iter().position(|m| m.name() == name) {
+        Some(k) => METHOD_PALETTE[k % METHOD_PALETTE.len()],
+        None => OTHER_COLOR,
     }
 }
 
@@ -66,7 +70,7 @@ pub fn all(page: &PageView) -> Vec<Group> {
     g.push(kinematics_group(page, true));
     g.push(kinematics_group(page, false));
     g.push(histogram_group(page));
-    if page.methods.iter().any(|m| m.name == "trig") {
+    if page.methods.iter().any(|m| m.name == ncsmooth::Method::Trig.name()) {
         g.push(trig_group());
     }
     g

@@ -69,6 +69,23 @@ impl Dialect {
         }
     }
 
+    /// The dialect of a command-line name.
+    pub fn from_name(name: &str) -> Option<Dialect> {
+        Dialect::ALL.into_iter().find(|d| d.name() == name)
+    }
+
+    /// One line for `--help`: the controller.
+    pub fn summary(self) -> &'static str {
+        match self {
+            Dialect::LinuxCnc => "LinuxCNC (RS274/NGC), the reference dialect.",
+            Dialect::Grbl => "grbl 1.1.",
+            Dialect::GrblHal => "grblHAL.",
+            Dialect::Marlin => "Marlin.",
+            Dialect::Klipper => "Klipper.",
+            Dialect::Generic => "Any controller that runs the written path exactly.",
+        }
+    }
+
     /// Whether the controller blends corners away from the written path unless told a
     /// bound (`G64 P Q`).
     pub fn blends(self) -> bool {

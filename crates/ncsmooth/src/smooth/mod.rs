@@ -49,12 +49,15 @@ pub mod arc_spline;
 pub mod band_fit;
 pub mod band_time;
 pub mod bspline_corner;
+mod method;
 pub mod nurbs_hybrid;
 pub mod run_mode;
 pub mod screen;
 pub mod simplify;
 pub mod stream;
 pub mod trig_corner;
+
+pub use method::Method;
 
 use crate::geom::{ParamCurve, ParamCurveArclen, Segment, Vec3};
 use crate::path::{ExtraAxes, Move, MoveKind, Toolpath, E_AXIS};
@@ -66,46 +69,6 @@ const EXTRA_AXIS_ARCLEN_ACCURACY: f64 = 1e-9;
 
 /// Expected ratio of output to input blocks for the corner methods (capacity hint).
 const OUTPUT_GROWTH: usize = 3;
-
-/// Smoothing method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-pub enum Method {
-    /// No smoothing.
-    #[default]
-    None,
-    /// Cubic B-spline corners (Guo et al.).
-    Bspline,
-    /// Circular-arc corners (Wu et al.).
-    Arc,
-    /// NURBS-circular hybrid (Wu et al.).
-    Nurbs,
-    /// Cubic trigonometric spline (Tao et al.).
-    Trig,
-}
-
-impl Method {
-    /// Parses a method name as used on the command line.
-    pub fn from_name(s: &str) -> Option<Method> {
-        Some(match s {
-            "none" => Method::None,
-            "bspline" => Method::Bspline,
-            "arc" => Method::Arc,
-            "nurbs" => Method::Nurbs,
-            "trig" => Method::Trig,
-            _ => return None,
-        })
-    }
-    /// Command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::None => "none",
-            Method::Bspline => "bspline",
-            Method::Arc => "arc",
-            Method::Nurbs => "nurbs",
-            Method::Trig => "trig",
-        }
-    }
-}
 
 /// Options common to every method.
 #[derive(Clone, Debug, PartialEq)]
@@ -518,11 +481,12 @@ fn smooth_stretch(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRe
 
 /// The arc joints, the run mode and the method on a stretch.
 fn smooth_method(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothReport) -> Vec<Move> {
-    // Arc joints first (shared by every method), then the method on what that left.
-    let curve = match opts.method {
-        Method::None => return passthrough(chain),
-        Method::Trig => arc_joint::BlendCurve::Trig,
-        _ => arc_joint::BlendCurve::Bezier,
+    // The same three steps for every method (its row of the table says how): the arc
+    // joints blended, runs of micro-corners fitted as one curve of the method's family (Wu's
+    // NURBS fits its runs itself), then the method's corners on what that left.
+    let spec = opts.method.spec();
+    let Some(curve) = spec.joint_curve else {
+        return (spec.smooth)(chain, opts, report);
     };
     let blended =
         arc_joint::blend_arc_joints(chain, opts.tol_mm, opts.straight_angle_deg, curve, report);
@@ -534,15 +498,9 @@ fn smooth_method(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRep
         },
         None => chain,
     };
-    // Run mode of Guo's and Tao's methods: runs of micro-corners become one curve of the
-    // method's family first (Wu's method fits its runs itself).
-    let family = match opts.method {
-        Method::Bspline => Some(run_mode::Family::Bezier),
-        Method::Trig => Some(run_mode::Family::Trig),
-        Method::Arc => Some(run_mode::Family::Arcs),
-        _ => None,
-    };
-    let rewritten = family.and_then(|f| run_mode::rewrite_runs(chain, opts, f, report));
+    let rewritten = spec
+        .run_family
+        .and_then(|f| run_mode::rewrite_runs(chain, opts, f, report));
     let chain = match &rewritten {
         Some(moves) => &Chain {
             moves,
@@ -551,13 +509,7 @@ fn smooth_method(chain: &Chain<'_>, opts: &SmoothOptions, report: &mut SmoothRep
         },
         None => chain,
     };
-    match opts.method {
-        Method::None => passthrough(chain),
-        Method::Bspline => bspline_corner::smooth_chain(chain, opts, &opts.bspline, report),
-        Method::Arc => arc_corner::smooth_arc(chain, opts, report),
-        Method::Nurbs => nurbs_hybrid::smooth_nurbs(chain, opts, report),
-        Method::Trig => trig_corner::smooth_chain_trig(chain, opts, report),
-    }
+    (spec.smooth)(chain, opts, report)
 }
 
 /// Turning angle (degrees) between the end of `a` and the start of `b`, if both have
