@@ -70,7 +70,11 @@ pub fn all(page: &PageView) -> Vec<Group> {
     g.push(kinematics_group(page, true));
     g.push(kinematics_group(page, false));
     g.push(histogram_group(page));
-    if page.methods.iter().any(|m| m.name == ncsmooth::Method::Trig.name()) {
+    if page
+        .methods
+        .iter()
+        .any(|m| m.name == ncsmooth::Method::Trig.name())
+    {
         g.push(trig_group());
     }
     g
