@@ -338,11 +338,10 @@ pub(crate) struct Lift {
     /// quarter of its length, the programmed corner is blended within a `P` of its own).
     pub corners_only: bool,
     /// With [`Lift::corners_only`], the chain's last block too: a rapid follows it, and
-    /// LinuxCNC stops before the rapid at the full acceleration. (At the program's end the
-    /// last segment keeps a parabolic blend's half acceleration: crown's last 40 mm line,
-    /// made to end at the programmed corner, ran 7.520 s against 7.443 for all of crown.)
-    /// camotics_vcarve's V strokes, plunging and rising again before a rapid, kept a
-    /// block of 0.005-0.01 mm at the bottom, which capped LinuxCNC's blend there at half
+    /// LinuxCNC stops before the rapid at the full acceleration (at the program's end the
+    /// last segment keeps a parabolic blend's half acceleration, so a corner there is
+    /// slower). Without it a V stroke plunging and rising again before a rapid keeps a
+    /// block of 0.005-0.01 mm at the bottom, which caps LinuxCNC's blend there at half
     /// its length.
     pub last_block: bool,
     /// The programmed vertices put in place of short blocks.

@@ -383,8 +383,8 @@ pub fn rewrite(
     let lines = &program.source.lines;
     let orig: Vec<&Move> = program.toolpath.moves().collect();
     let (orig, orig_by) = moves_by_line(&orig, lines.len())?;
-    // LinuxCNC's programmed corners between runs keep the runs' `P`: cncjs_jsdc bspline
-    // ran 18.173 s with them given as the programmed corner, 18.124 s without.
+    // LinuxCNC's programmed corners between runs keep the runs' `P` (faster than giving
+    // them the programmed corner's, docs/benchmarks/2026-12-03.md).
     let stepper_floor = opts.block_floor.filter(|f| f.corner.is_none());
     let cornered = floor_corners(output, &orig, &orig_by, stepper_floor);
     let out: Vec<&Move> = match &cornered {
@@ -651,10 +651,9 @@ const MOTION_CANCELLED10: u16 = 800;
 
 /// Per line: whether the copied lines from it up to the next replaced one move, and only
 /// at rapid, so that the verbatim bound ([`RewriteOptions::verbatim_blend`]) may be set
-/// there. A copied feed line stays under the runs' bound: LinuxCNC 2.9 accelerated
-/// cncjs_jsdc's opening 52 mm G1 line, joined by an arc blend under `P0.0095`, at half the
-/// rate (0.09 s slower than under `P0.001`). A motion line without moves of its own (from
-/// a position not known) counts as a feed unless it is a `G0`.
+/// there. A copied feed line stays under the runs' bound: LinuxCNC accelerates a line that
+/// an arc blend under a looser `P` joins at half the rate. A motion line without moves of
+/// its own (from a position not known) counts as a feed unless it is a `G0`.
 fn rapids_ahead(
     lines: &[LineInfo],
     orig: &[&Move],

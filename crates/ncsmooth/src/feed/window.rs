@@ -11,7 +11,7 @@
 //! batch: the window must not wait for the consumer). How far the interpolator
 //! trails them is bounded by the planning pipeline itself: the look-ahead window (a few
 //! thousand grid points) and the sample queues between planning and interpolation
-//! (`EMIT_QUEUE_BATCHES` batches of `EMIT_BATCH` periods, 33 s of motion at 1 ms), so at
+//! (`EMIT_QUEUE_BATCHES` batches of `EMIT_BATCH` periods), so at
 //! most the moves of that much motion are held behind the grid readers.
 //!
 //! A reader asking for a move not yet pushed waits for it; once the indexing side has

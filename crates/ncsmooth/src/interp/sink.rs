@@ -6,7 +6,7 @@
 //! * [`super::SetpointWriter`]: CSV text into any [`std::io::Write`] (what `plan
 //!   --setpoints` writes; [`super::execute`] is `execute_into` with this sink);
 //! * `Vec<Setpoint>`: every row in memory (mind the size: one row per period, 64 bytes
-//!   each, 221 296 rows for the butterfly's unsmoothed jerk-limited plan at 1 ms);
+//!   each, a thousand rows per second of motion at a 1 ms period);
 //! * [`FnSink`]: a callback per row (to decimate, forward or stop early: an error stops
 //!   the run and comes back as [`super::PlanError::Io`]);
 //! * [`NullSink`]: nothing (only the report is wanted);

@@ -28,15 +28,12 @@ const LINUXCNC_BLEND_GAP_S: f64 = LINUXCNC_BLEND_GAP_CYCLES * LINUXCNC_SERVO_PER
 /// tangent (tp.c `tpGetTangentKinkRatio`).
 pub const LINUXCNC_TANGENT_KINK_RATIO: f64 = 0.1;
 
-/// Smallest share of `P` a block gets under a [`BlendSchedule`]. Measured on LinuxCNC 2.9
-/// (50 mm/s, 500 mm/s^2, tol 0.01), butterfly_1000 / cncjs_jsdc nurbs: 1/8 9.348 / 18.187 s,
-/// 1/16 9.325 / 18.167 s, 1/32 9.483 / 18.206 s, 1/64 9.642 / 18.316 s.
+/// Smallest share of `P` a block gets under a [`BlendSchedule`] (the fastest of 1/8 to
+/// 1/64 on LinuxCNC 2.9, docs/benchmarks/2026-12-03.md).
 pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 
 /// Steps per halving of `P` a [`BlendSchedule`] rounds its shares up to (4: shares are
-/// powers of `2^(1/4)`), trading `G64` lines for time. Measured on butterfly_1000 nurbs
-/// (LinuxCNC 2.9): 1 step 9.396 s, 2 steps 9.382 s, 4 steps 9.377 s with 216 `G64`
-/// lines, unrounded 9.368 s with 376.
+/// powers of `2^(1/4)`), trading `G64` lines for time (docs/benchmarks/2026-12-03.md).
 pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 
 /// A block cut in two by a [`BlendSchedule`] (`BlendSchedule::splits`).
@@ -97,8 +94,6 @@ pub const SPLIT_ROOM: f64 = 1.2;
 /// Largest share of the acceleration a split's kink may take (tp.c `tpSetupTangent`
 /// joins two lines as tangent when the kink at full speed takes less than
 /// [`LINUXCNC_TANGENT_KINK_RATIO`], and lowers both lines' acceleration by that share).
-/// Measured on camotics_vcarve trig (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, tol 0.01):
-/// 0.02 20.219 s, 0.05 20.214 s, within the spread of a few ms between runs.
 pub const SPLIT_KINK_RATIO: f64 = 0.02;
 /// Points tried along a block for a split.
 pub const SPLIT_CANDIDATES: usize = 256;
@@ -163,11 +158,7 @@ pub struct RunEnds {
 /// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line at that speed is consumed
 /// (blendmath.c `blendCheckConsume`) and run at the blend's half acceleration; its
 /// vertices still get only what their speed needs, the least `P` consuming the least of
-/// the next blocks. (They had all of `P`, for the radius: LinuxCNC 2.9, 50 mm/s,
-/// 500 mm/s^2, tol 0.01, bspline / arc / nurbs / trig, camotics_vcarve 20.099 / 20.097 /
-/// 20.108 / 20.138 s -> 20.083 / 20.080 / 20.084 / 20.093 s, butterfly_1000 9.179 /
-/// 9.179 / 9.153 / 9.195 -> 9.169 / 9.169 / 9.143 / 9.190 s, cncjs_jsdc 1-6 ms faster,
-/// crown unchanged.) Vertices LinuxCNC joins as tangent (below
+/// the next blocks. Vertices LinuxCNC joins as tangent (below
 /// [`LINUXCNC_TANGENT_KINK_RATIO`]) take nothing. Shares are clamped to
 /// [`BLEND_SCHEDULE_MIN_SHARE`]` ..= 1` and rounded up to a power of `2^(1/4)`
 /// ([`BLEND_SCHEDULE_STEPS_PER_HALVING`]); a block gets the larger of its two vertices'
@@ -183,17 +174,8 @@ pub struct RunEnds {
 /// between two tight ones) gets its own share from a split of one of them
 /// (`BlendSchedule::splits`): the point cutting it is on its line, a join LinuxCNC takes
 /// as tangent, so the blend there leaves LinuxCNC its lines to accelerate on at the full
-/// rate. LinuxCNC 2.9 (50 mm/s, 500 mm/s^2, tol 0.01), bspline / arc / nurbs / trig:
-/// camotics_vcarve 20.356 / 20.379 / 20.443 / 20.332 s -> 20.255 / 20.280 / 20.343 /
-/// 20.230, butterfly_1000 9.212 / 9.215 / 9.179 / 9.235 -> 9.197 / 9.186 / 9.156 / 9.221,
-/// crown and cncjs_jsdc within 5 ms of before.
-///
-/// Measured (LinuxCNC 2.9, 50 mm/s, 500 mm/s^2, tol 0.01), butterfly_1000 nurbs: one `P`
-/// 9.520 s; shares for the feed alone, with the radius estimated as chord over turn,
-/// 9.466 s; for the look-ahead speed 9.377 s; with LinuxCNC's blend geometry 9.325 s
-/// (the input's own lines under `G64 P0.01`: 9.394 s). With evened blocks and the run's
-/// ends 9.219 s; with half the acceleration on what the blends take 9.175 s
-/// (camotics_vcarve arc 20.369 -> 20.347 s).
+/// rate. What each of these steps gained on LinuxCNC 2.9 is in
+/// docs/benchmarks/2026-12-03.md.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlendSchedule {
     /// The run's `P` (mm), the largest written.

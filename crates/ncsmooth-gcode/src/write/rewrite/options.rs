@@ -32,9 +32,9 @@ pub struct RewriteOptions {
     /// itself, so their blending may take the whole tolerance, not what is left of it
     /// after the smoothing; LinuxCNC blends a junction with the smaller `P` of its two
     /// moves (tc.c `tcFindBlendTolerance`), so a run's ends keep the run's bound. Copied
-    /// feed lines keep the runs' bound: LinuxCNC 2.9 accelerated cncjs_jsdc's opening
-    /// 52 mm G1 line, joined by an arc blend under `P0.0095`, at half the rate (0.09 s
-    /// slower than under `P0.001`). Default `None`: the runs' `blend` everywhere.
+    /// feed lines keep the runs' bound: LinuxCNC accelerates a line that an arc blend
+    /// under a looser `P` joins at half the rate. Default `None`: the runs' `blend`
+    /// everywhere.
     pub verbatim_blend: Option<Blend>,
     /// Planes in which arcs may be written as `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2
     /// G19); arcs in other planes are flattened. Default all.
