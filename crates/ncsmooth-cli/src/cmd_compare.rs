@@ -8,7 +8,7 @@
 //! * the **written G-code**: [`SmoothJob`], exactly what `smooth --method M --tol T`
 //!   writes (curves built to `tol - chord - rounding`, flattened, read back and measured);
 //! * the **setpoints**: the path `plan --method M --tol T` plans (curves built to the whole
-//!   tolerance, [`crate::cmd_plan::smooth_for_plan`]) under the same limits and default
+//!   tolerance, [`PlanJob::smooth`]) under the same limits and default
 //!   interpolation. Its JSON (`methods[i].plan`) is what `plan --report` writes for that
 //!   method, timings aside (an ignored test checks this on every shared file); the plots
 //!   and the table's deviation are of this path, measured against the program.
@@ -20,7 +20,8 @@
 //! `--emit` and `--dialect` are not accepted yet: every method is written for LinuxCNC
 //! with [`SmoothJob`]'s defaults.
 
-use crate::cmd_plan::{axes, check_period, smooth_for_plan};
+use crate::cmd_plan::axes;
+use crate::cmd_smooth::job_error;
 use crate::io::{self, OutputFile};
 use crate::{load, progress, Ui};
 use anyhow::{bail, Context, Result};
@@ -30,7 +31,7 @@ use ncsmooth::interp::{execute_into, InterpOptions, SetpointWriter};
 use ncsmooth::smooth::Method;
 use ncsmooth::verify::{Continuity, Deviation};
 use ncsmooth_gcode::PlanRunReport;
-use ncsmooth_gcode::SmoothJob;
+use ncsmooth_gcode::{PlanJob, SmoothJob};
 use ncsmooth_report::{self as report, GcodeSummary, MethodView, PageView, PlotData};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
@@ -163,14 +164,16 @@ fn run_method(job: &Job, m: Method, pb: &indicatif::ProgressBar) -> Result<Run> 
         .with_decimals(DECIMALS)
         .with_read_options(crate::parse_options().clone())
         .run(job.name, job.src, job.program)
-        .map_err(crate::cmd_smooth::job_error)?;
+        .map_err(job_error)?;
     let gfile = format!("{}_{name}.ngc", job.stem);
     let mut gout = OutputFile::create(&job.out.join(&gfile))?;
     gout.write_all(&out.gcode)
         .with_context(|| format!("writing {gfile}"))?;
     pb.set_message(format!("{name}: planning"));
     let t1 = Instant::now();
-    let smoothed = smooth_for_plan(&job.program.toolpath, m, job.tol, None)?;
+    let smoothed = PlanJob::new(m, job.tol)
+        .smooth(&job.program.toolpath)
+        .map_err(job_error)?;
     let smooth_s = t1.elapsed().as_secs_f64();
     let sfile = job.setpoints.then(|| format!("{}_{name}.csv", job.stem));
     let csv = match &sfile {
@@ -329,7 +332,7 @@ pub fn compare(job: &Job, ui: Ui) -> Result<Outcome> {
 
 /// The limits `compare` plans under, validated (bad input otherwise).
 pub fn limits(feed: f64, acc: &str, jerk: Option<&str>, period: f64) -> Result<PlanOptions> {
-    check_period(period)?;
+    ncsmooth_gcode::check_period(period).map_err(job_error)?;
     let popts = PlanOptions {
         feed_mm_s: feed,
         acc_mm_s2: axes("acc", acc)?,

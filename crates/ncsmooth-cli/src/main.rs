@@ -17,7 +17,6 @@ mod cmd_smooth;
 mod demo;
 mod diag;
 mod io;
-mod plan_stream;
 mod progress;
 mod table_arg;
 

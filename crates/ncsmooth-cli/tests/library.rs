@@ -3,11 +3,15 @@
 //! writes, byte for byte, on every program of `../shared/data/gcode`: for grbl against the
 //! binary run beside it, for LinuxCNC (the default dialect) against the pinned golden hash
 //! of the binary's output (`tests/golden/outputs.txt`, which `golden.rs` holds the binary
-//! to). Ignored in debug builds; CI runs it in release. Skips when `../shared` is absent.
+//! to). The plan example (`plan_file.rs`) writes the setpoints `ncsmooth plan FILE --method
+//! bspline --feed F --acc A --setpoints OUT` writes. Ignored in debug builds; CI runs them
+//! in release. Skip when `../shared` is absent.
 
 mod common;
 #[path = "../../ncsmooth-gcode/examples/smooth_file.rs"]
 mod example;
+#[path = "../../ncsmooth-gcode/examples/plan_file.rs"]
+mod plan_example;
 
 use common::{fnv1a, run, shared_data, tmpdir, without_header};
 use ncsmooth_gcode::Dialect;
@@ -74,6 +78,45 @@ fn the_library_example_writes_what_smooth_writes() {
         assert!(
             cli.0 == cli.1,
             "{name} grbl: the library's G-code differs from the binary's"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+#[ignore = "seconds in release; CI runs it with --release --ignored"]
+fn the_plan_example_writes_what_plan_writes() {
+    let Some(data) = shared_data() else {
+        eprintln!("SKIP the_plan_example_writes_what_plan_writes: ../shared/data not found");
+        return;
+    };
+    let dir = tmpdir("library-plan");
+    for f in [
+        data.join("profiles/butterfly_1000.ngc"),
+        data.join("gcode/cncjs_jsdc.gcode"),
+        data.join("gcode/linuxcnc_rgh.ngc"),
+    ] {
+        let path = f.to_str().unwrap();
+        let out = dir.join("cli.csv");
+        let o = run(&[
+            "plan",
+            path,
+            "--method",
+            "bspline",
+            "--feed",
+            "40",
+            "--acc",
+            "300",
+            "--setpoints",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{path}: {}", common::stderr(&o));
+        let mut lib = Vec::new();
+        let report = plan_example::plan_file(path, 40.0, 300.0, &mut lib).unwrap();
+        assert!(report.plan.limits_held);
+        assert!(
+            std::fs::read(&out).unwrap() == lib,
+            "{path}: the library's setpoints differ from the binary's"
         );
     }
     std::fs::remove_dir_all(&dir).ok();

@@ -73,8 +73,9 @@ pub use interp::program::{
     parse_bytes, parse_str, ParseOptions, ParseStats, Program, MAX_HELD_BLOCKS,
 };
 pub use job::{
-    BlendReport, BlockReport, EmitStyle, InspectReport, JobError, MovesByCode, PlanRunReport,
-    SmoothJob, SmoothRunReport, Smoothed, Timings,
+    check_period, write_path_samples, BlendReport, BlockReport, EmitStyle, InspectReport, JobError,
+    MovesByCode, PlanInput, PlanJob, PlanNote, PlanRunReport, Planned, SmoothJob, SmoothRunReport,
+    Smoothed, Timings, MAX_PERIOD_S, MIN_PERIOD_S,
 };
 pub use ncsmooth::path::Units;
 pub use source::{Plane, SourceMap};

@@ -239,6 +239,41 @@ text-align:right}td:first-child,th:first-child{text-align:left}th{background:#f3
 max-height:400px;overflow:auto;font-size:12px}.bad{color:#b00;font-weight:bold}\
 caption{text-align:left;font-weight:bold;padding:4px 0}";
 
+/// The page of one plan (`ncsmooth plan --report-html`): the page of a comparison with
+/// this one method: its table row, the path with the tolerance band, curvature, feed,
+/// per-axis acceleration and jerk. `program` is the path planned from (the band is drawn
+/// around it), `planned` the smoothed path, `plots` the sink the setpoints went through.
+pub fn plan_page(
+    run: &PlanRunReport,
+    tol: f64,
+    popts: &PlanOptions,
+    program: &Toolpath,
+    planned: Toolpath,
+    plots: PlotSink,
+) -> String {
+    let data = PlotData::measure(program, planned, plots, tol);
+    let name = run.input.as_str();
+    let page = PageView {
+        title: format!("ncsmooth plan: {name}, {}", run.method),
+        input: name,
+        tol,
+        limits: popts,
+        program,
+        source: None,
+        methods: vec![MethodView {
+            name: &run.method,
+            plan: run,
+            gcode: None,
+            speedup: None,
+            compute_s: run.plan.stage_time_s.total_s + run.smooth_s + run.parse_s,
+            data: &data,
+            setpoints_file: None,
+        }],
+        notes: Vec::new(),
+    };
+    render_page(&page).0
+}
+
 /// Renders the page; also returns every plot as `(id, svg)` for separate files.
 pub fn render_page(page: &PageView) -> (String, Vec<(String, String)>) {
     let groups = plots::all(page);

@@ -31,11 +31,16 @@
 //! ```
 
 mod inspect;
+mod plan;
 mod policy;
 mod report;
 mod smooth;
 
 pub use inspect::{InspectReport, MovesByCode};
+pub use plan::{
+    check_period, write_path_samples, PlanInput, PlanJob, PlanNote, Planned, MAX_PERIOD_S,
+    MIN_PERIOD_S,
+};
 pub use report::{BlendReport, BlockReport, PlanRunReport, SmoothRunReport, Timings};
 
 use crate::{Dialect, ParseError, ParseOptions};
@@ -63,6 +68,16 @@ pub enum JobError {
     /// ours: the method's own construction should have held it).
     #[error("verification failed: {0}")]
     Verification(String),
+    /// The planner failed (a sink's write error, or a bug of ours).
+    #[error(transparent)]
+    Plan(#[from] ncsmooth::interp::PlanError),
+    /// The setpoints, measured, break a limit the options did not waive (a bug of ours).
+    #[error("{0}")]
+    LimitsBroken(String),
+    /// The follow scheme gave up on a run it could not finish within the limits:
+    /// [`PlanJob::fallback`] plans it under the filter scheme.
+    #[error("{0}")]
+    FollowGaveUp(String),
 }
 
 impl JobError {

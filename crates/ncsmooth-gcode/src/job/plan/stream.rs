@@ -1,25 +1,23 @@
-//! `plan` of a G-code file in memory that does not grow with the program: the file is
-//! interpreted a batch of blocks at a time ([`BlockReader`]), smoothed chain by chain
-//! ([`StreamSmoother`], a chain longer than its window cut as its module doc says), and
-//! planned and interpolated while it is read ([`execute_streamed`]). A program held whole
-//! (`compare`, `--report-html`, stdin) is smoothed by the same windowed smoother
-//! ([`StreamSmoother::for_plan`]), so the setpoints are the same either way.
+//! A planning job on a G-code file, in memory that does not grow with the program: the
+//! file is interpreted a batch of blocks at a time ([`BlockReader`]), smoothed chain by
+//! chain ([`StreamSmoother`], a chain longer than its window cut as its module doc says),
+//! and planned and interpolated while it is read ([`execute_streamed`]). A path held
+//! whole is smoothed by the same windowed smoother ([`StreamSmoother::for_plan`]), so the
+//! setpoints are the same either way.
 //!
 //! What needs the whole program is done on the way: the jerk split is chosen on the first
-//! [`SPLIT_SEARCH_MAX_BLOCKS`] smoothed blocks (as the whole path does), and `--max-rows`
+//! [`SPLIT_SEARCH_MAX_BLOCKS`] smoothed blocks (as the whole path does), and the row limit
 //! is checked against the lower bound on the cycle time as the moves arrive (a plan that
 //! already needs more rows stops reading, and nothing is written).
 
-use crate::{diag, io};
-use anyhow::Result;
+use super::{JobError, PlanJob};
+use crate::{BlockReader, ParseError, ParseOptions};
 use ncsmooth::feed::grid::IndexFeeder;
 use ncsmooth::feed::jerk::{fastest_split, SPLIT_SEARCH_MAX_BLOCKS};
 use ncsmooth::feed::PlanOptions;
 use ncsmooth::interp::{execute_streamed, InterpOptions, PlanError, PlanReport, SetpointSink};
-use ncsmooth::smooth::band_time::TimeLimits;
-use ncsmooth::smooth::{Method, SmoothReport};
+use ncsmooth::smooth::SmoothReport;
 use ncsmooth::{Block, StreamSmoother, Toolpath, Vec3};
-use ncsmooth_gcode::{BlockReader, ParseError, ParseOptions};
 use std::path::Path;
 
 /// Blocks asked of the reader at a time.
@@ -29,54 +27,52 @@ const READ_BATCH_BLOCKS: usize = 4096;
 enum FeedStop {
     /// The program is not valid G-code there.
     Parse(ParseError),
-    /// The cycle takes at least this long (s), more than `--max-rows` allows.
+    /// The cycle takes at least this long (s), more than the row limit allows.
     TooLong(f64),
 }
 
 /// A G-code file being read, smoothed and planned (see the module doc).
-pub(crate) struct StreamedInput<'o> {
+pub(super) struct StreamedInput<'o> {
     reader: BlockReader<'o>,
     smoother: StreamSmoother,
     /// Smoothed blocks read ahead (for the jerk split and the start point).
     prefix: Vec<Block>,
     /// The reader has more blocks.
     more: bool,
-    path: &'o Path,
+    /// The row limit of the job.
+    max_rows: Option<u64>,
 }
 
 impl<'o> StreamedInput<'o> {
-    /// Opens `path` (named `name` in messages) and smooths its first blocks.
-    pub fn open(
-        path: &'o Path,
+    /// Opens `path` (named `name` in messages) and smooths its first blocks as `job` asks.
+    pub(super) fn open(
+        path: &Path,
         name: &'o str,
         parse: &'o ParseOptions,
-        method: Method,
-        tol_mm: f64,
-        time_shape: Option<TimeLimits>,
-    ) -> Result<Self> {
-        let reader =
-            BlockReader::open(path, name, parse).map_err(|e| diag::reported_at_line(e, path))?;
-        let smoother = StreamSmoother::for_plan(method, tol_mm, time_shape)
-            .map_err(|e| io::BadInput(e.to_string()))?;
+        job: &PlanJob,
+    ) -> Result<Self, JobError> {
+        let reader = BlockReader::open(path, name, parse)?;
+        let smoother = StreamSmoother::for_plan(job.method, job.tol_mm, job.time_limits())
+            .map_err(|e| JobError::BadInput(e.to_string()))?;
         let mut input = StreamedInput {
             reader,
             smoother,
             prefix: Vec::new(),
             more: true,
-            path,
+            max_rows: job.max_rows,
         };
         while input.more && input.prefix.len() < SPLIT_SEARCH_MAX_BLOCKS {
             let mut out = std::mem::take(&mut input.prefix);
             let pumped = input.pump(&mut out);
             input.prefix = out;
-            pumped.map_err(|e| diag::reported_at_line(e, path))?;
+            pumped?;
         }
         Ok(input)
     }
 
     /// The line of the first move read before any G20/G21, if it came within the blocks
-    /// read so far ([`ncsmooth_gcode::ParseStats::units_assumed`]).
-    pub fn units_assumed(&self) -> Option<u32> {
+    /// read so far ([`crate::ParseStats::units_assumed`]).
+    pub(super) fn units_assumed(&self) -> Option<u32> {
         self.reader.stats().units_assumed
     }
 
@@ -117,7 +113,7 @@ impl<'o> StreamedInput<'o> {
     /// read ahead, else the limits' (a later move could be faster than any of the first),
     /// stated so that the report says what the plan was sized for; and in jerk mode
     /// without a split the fastest for the first blocks.
-    pub fn tuned(&self, popts: &PlanOptions) -> PlanOptions {
+    pub(super) fn tuned(&self, popts: &PlanOptions) -> PlanOptions {
         let mut o = popts.clone();
         let prefix = self.prefix_toolpath();
         if o.top_speed_mm_s.is_none() {
@@ -133,35 +129,34 @@ impl<'o> StreamedInput<'o> {
         o
     }
 
-    /// Plans the program into `sink` while reading it. The outer error is the input's (a
-    /// parse error, reported; or more rows than `max_rows`), the inner the plan's.
-    pub fn plan<S: SetpointSink + Send>(
+    /// Plans the program into `sink` while reading it. The error is the input's (a parse
+    /// error, or more rows than the limit); the plan's own result is the inner one.
+    pub(super) fn plan<S: SetpointSink + Send>(
         &mut self,
         popts: &PlanOptions,
         iopts: &InterpOptions,
         sink: S,
-        max_rows: Option<u64>,
         announce: &(dyn Fn(f64) -> bool + Sync),
-    ) -> Result<Result<(PlanReport, S), PlanError>> {
+    ) -> Result<Result<(PlanReport, S), PlanError>, JobError> {
         let start = self.start();
         let mask = self.reader.extra_axes_mask();
         let prefix = std::mem::take(&mut self.prefix);
+        let max_rows = self.max_rows;
         let max_cycle_s = max_rows.map(|n| n as f64 * popts.period_s);
         let (planned, fed) = execute_streamed(start, mask, popts, iopts, sink, |f| {
             self.feed(f, prefix, popts, max_cycle_s, announce)
         });
         match fed {
             Ok(()) => Ok(planned),
-            Err(FeedStop::Parse(e)) => Err(diag::reported_at_line(e, self.path)),
-            Err(FeedStop::TooLong(min_cycle_s)) => Err(io::BadInput(format!(
+            Err(FeedStop::Parse(e)) => Err(JobError::Parse(e)),
+            Err(FeedStop::TooLong(min_cycle_s)) => Err(JobError::BadInput(format!(
                 "the cycle takes at least {min_cycle_s:.3} s (the path at its speed caps), so \
                  at least {} setpoint rows at --period {:?} s, more than --max-rows {}; \
                  nothing written",
                 (min_cycle_s / popts.period_s) as u64,
                 popts.period_s,
                 max_rows.unwrap_or_default()
-            ))
-            .into()),
+            ))),
         }
     }
 
@@ -202,7 +197,7 @@ impl<'o> StreamedInput<'o> {
     }
 
     /// What smoothing did.
-    pub fn report(&self) -> SmoothReport {
+    pub(super) fn report(&self) -> SmoothReport {
         self.smoother.report().clone()
     }
 }
