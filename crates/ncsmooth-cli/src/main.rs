@@ -37,6 +37,10 @@ struct Cli {
     /// machine's units ([TRAJ] LINEAR_UNITS), so give the machine's here [default: mm].
     #[arg(long, global = true, value_enum)]
     units: Option<UnitsArg>,
+    /// Most threads the work uses (1: one core; outputs are the same for any number)
+    /// [default: the machine's cores, at most 4].
+    #[arg(long, global = true, value_name = "N")]
+    threads: Option<usize>,
     #[command(subcommand)]
     cmd: Option<Cmd>,
 }
@@ -123,6 +127,7 @@ fn main() -> ExitCode {
         Some(UnitsArg::Inch) => ncsmooth::Units::Inches,
         _ => ncsmooth::Units::Millimetres,
     };
+    ncsmooth::set_threads(cli.threads.unwrap_or(0));
     let _ = PARSE_OPTIONS.set(ncsmooth_gcode::ParseOptions::default().with_default_units(units));
     if let Err(e) = io::remove_temp_files_on_signals() {
         // The run can go on; an interruption may then leave a temporary file, which the

@@ -60,6 +60,7 @@ pub use interp::{
     execute_into, execute_streamed, FnSink, InterpOptions, PlanError, PlanReport, Setpoint,
     SetpointSink, SetpointWriter,
 };
+pub use par::{set_threads, threads};
 pub use path::{Block, Event, EventKind, Move, MoveKind, Toolpath, Units};
 pub use smooth::stream::{smooth_for_plan, StreamOptions, StreamSmoother, PLAN_WINDOW_MOVES};
 pub use smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};

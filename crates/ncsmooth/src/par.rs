@@ -1,21 +1,48 @@
-//! Data parallelism for independent per-item work: `n` items cut into one contiguous chunk
-//! per thread (std scoped threads, at most [`MAX_THREADS`]), the results concatenated in
-//! order. Each item is computed alone, so the result never depends on the number of
-//! threads; below a caller's threshold, or on one core, it is a plain loop.
+//! Data parallelism for independent per-item work, and the one setting of how many
+//! threads ncsmooth uses ([`set_threads`]).
+//!
+//! [`map`] cuts `n` items into one contiguous chunk per thread (std scoped threads), the
+//! results concatenated in order. Each item is computed alone, so the result never depends
+//! on the number of threads; below a caller's threshold, or with one thread, it is a plain
+//! loop. The planner computes its grid on a second thread when there are two
+//! (`feed::lookahead::plan_stream`), with the same result. The setpoint pipeline
+//! (`interp::execute_streamed`: reading, planning, interpolating and writing as stages)
+//! runs its stages on threads of their own whatever the setting: they hand data along
+//! bounded queues, so they are concurrent by construction, not for speed.
 
-/// Most threads [`map`] uses.
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Most threads [`map`] uses by default; [`set_threads`] may ask for more.
 pub const MAX_THREADS: usize = 4;
 
-/// `(0..n).map(f).collect()`, on up to [`MAX_THREADS`] threads when `n >= min_items` and
-/// the machine has more than one core.
+/// The setting of [`set_threads`]; 0 for the default.
+static THREADS: AtomicUsize = AtomicUsize::new(0);
+
+/// Sets the most threads ncsmooth's parallel work uses, for the whole process: 1 runs it
+/// all on the calling thread (the pipeline's stages aside, see the module doc); 0
+/// restores the default, the machine's cores up to [`MAX_THREADS`]. Results never depend
+/// on it.
+pub fn set_threads(n: usize) {
+    THREADS.store(n, Ordering::Relaxed);
+}
+
+/// The threads ncsmooth's parallel work may use (see [`set_threads`]), at least 1.
+pub fn threads() -> usize {
+    match THREADS.load(Ordering::Relaxed) {
+        0 => std::thread::available_parallelism()
+            .map_or(1, |c| c.get())
+            .min(MAX_THREADS),
+        n => n,
+    }
+}
+
+/// `(0..n).map(f).collect()`, on up to [`threads`] threads when `n >= min_items`.
 pub fn map<T, F>(n: usize, min_items: usize, f: F) -> Vec<T>
 where
     T: Send,
     F: Fn(usize) -> T + Sync,
 {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |c| c.get())
-        .min(MAX_THREADS);
+    let threads = threads();
     if threads < 2 || n < min_items.max(2) {
         return (0..n).map(f).collect();
     }
@@ -45,5 +72,15 @@ mod tests {
             assert_eq!(map(n, 1, |i| i * i + 1), want, "n = {n}");
             assert_eq!(map(n, usize::MAX, |i| i * i + 1), want, "n = {n}");
         }
+        // The setting changes the threads, never the result (other tests may run while
+        // it is set: they see the same results).
+        set_threads(3);
+        assert_eq!(threads(), 3);
+        assert_eq!(
+            map(1000, 1, |i| i * 7),
+            (0..1000).map(|i| i * 7).collect::<Vec<_>>()
+        );
+        set_threads(0);
+        assert!((1..=MAX_THREADS).contains(&threads()));
     }
 }

@@ -287,8 +287,7 @@ pub fn plan_stream(
     sink: impl FnMut(PlanEvent),
 ) -> PlanStats {
     let mut gen = GridGen::new(index, opts);
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    if threads < 2 || index.shorter_than(GRID_THREAD_MIN_MOVES) {
+    if crate::par::threads() < 2 || index.shorter_than(GRID_THREAD_MIN_MOVES) {
         index.not_reading(super::window::Reader::GridProducer);
         return plan_with(&mut gen, index, opts, sink);
     }
