@@ -80,19 +80,16 @@ pub fn run(a: DemoArgs, ui: Ui) -> Result<()> {
         Some(DEMO_JERK_MM_S3),
         DEMO_PERIOD_S,
     )?;
-    let job = cmd_compare::Job {
-        name: "butterfly_1000.ngc",
-        src: src.as_bytes(),
-        program: &program,
-        parse_s,
-        tol: a.tol,
+    let job = ncsmooth_report::CompareJob::new(
+        "butterfly_1000.ngc",
+        src.as_bytes(),
+        &program,
+        a.tol,
         popts,
-        out: &a.out,
-        stem: "butterfly".into(),
-        setpoints: true,
-        embed_source: true,
-    };
-    let outcome = cmd_compare::compare(&job, ui)?;
+    )
+    .with_parse_s(parse_s)
+    .with_stem("butterfly");
+    let outcome = cmd_compare::compare(&job, &a.out, true, ui)?;
     cmd_compare::finish(&outcome, ui)?;
     // The page's path, always (also with --quiet): it is what the demo is for.
     if ui.quiet {

@@ -8,10 +8,12 @@
 
 #![forbid(unsafe_code)]
 
+mod compare;
 mod plots;
 mod series;
 mod svg;
 
+pub use compare::{CompareJob, CompareReport, Compared, MethodFiles, MethodResult};
 pub use plots::method_color;
 pub use series::{curvature_profile, PlotSink, MAX_BUCKETS};
 
