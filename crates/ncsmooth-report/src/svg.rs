@@ -273,37 +273,24 @@ fn num(v: f64) -> String {
     s.strip_suffix(".0").map_or(s.clone(), str::to_string)
 }
 
-/// Douglas-Peucker simplification of one run of pixel points within `tol` px.
+/// Douglas-Peucker simplification ([`ncsmooth::geom::douglas_peucker`]) of one run of
+/// pixel points within `tol` px.
 pub fn simplify(pts: &[[f64; 2]], tol: f64) -> Vec<[f64; 2]> {
     if pts.len() < 3 {
         return pts.to_vec();
     }
-    let mut keep = vec![false; pts.len()];
-    keep[0] = true;
-    keep[pts.len() - 1] = true;
-    let mut stack = vec![(0usize, pts.len() - 1)];
-    while let Some((a, b)) = stack.pop() {
-        let (pa, pb) = (pts[a], pts[b]);
+    let dist = |a: usize, b: usize, k: usize| {
+        let (pa, pb, p) = (pts[a], pts[b], pts[k]);
         let d = [pb[0] - pa[0], pb[1] - pa[1]];
         let len = d[0].hypot(d[1]);
-        let mut worst = (0.0, a);
-        for (i, p) in pts.iter().enumerate().take(b).skip(a + 1) {
-            let v = [p[0] - pa[0], p[1] - pa[1]];
-            let dist = if len > 0.0 {
-                (v[0] * d[1] - v[1] * d[0]).abs() / len
-            } else {
-                v[0].hypot(v[1])
-            };
-            if dist > worst.0 {
-                worst = (dist, i);
-            }
+        let v = [p[0] - pa[0], p[1] - pa[1]];
+        if len > 0.0 {
+            (v[0] * d[1] - v[1] * d[0]).abs() / len
+        } else {
+            v[0].hypot(v[1])
         }
-        if worst.0 > tol {
-            keep[worst.1] = true;
-            stack.push((a, worst.1));
-            stack.push((worst.1, b));
-        }
-    }
+    };
+    let keep = ncsmooth::geom::douglas_peucker(pts.len(), tol, dist, |_, _| false);
     pts.iter()
         .zip(keep)
         .filter_map(|(p, k)| k.then_some(*p))

@@ -9,6 +9,7 @@ pub mod global_interp;
 mod line;
 mod nurbs;
 mod segment;
+mod simplify;
 pub mod step_arclen;
 mod traits;
 mod trig_spline;
@@ -19,6 +20,7 @@ pub use cubic_bez::CubicBez;
 pub use line::Line;
 pub use nurbs::{Nurbs, PreparedNurbs, MAX_DEGREE};
 pub use segment::Segment;
+pub use simplify::douglas_peucker;
 pub use traits::*;
 pub use trig_spline::{
     basis as trig_basis, basis_deriv as trig_basis_deriv, PreparedTrig, TrigSpline,

@@ -447,34 +447,17 @@ fn item_to(it: &Item) -> ChainPos {
     }
 }
 
-/// Douglas-Peucker (iterative): which of `pts` to keep so that every dropped point lies
-/// within `eps_mm` of the kept line spanning it, and no kept line is shorter than
-/// [`DEGENERATE_MM`] where a point was dropped. The ends are always kept.
+/// Douglas-Peucker ([`crate::geom::douglas_peucker`]): which of `pts` to keep so that
+/// every dropped point lies within `eps_mm` of the kept line spanning it, and no kept line
+/// is shorter than [`DEGENERATE_MM`] where a point was dropped (a stretch that returns to
+/// its start keeps its farthest point). The ends are always kept.
 fn douglas_peucker(pts: &[Vec3], eps_mm: f64) -> Vec<bool> {
-    let mut keep = vec![false; pts.len()];
-    keep[0] = true;
-    keep[pts.len() - 1] = true;
-    let mut stack = vec![(0, pts.len() - 1)];
-    while let Some((a, b)) = stack.pop() {
-        let chord = Line::new(pts[a], pts[b]);
-        let far = (a + 1..b).map(|k| (k, chord.dist_sq(pts[k]).sqrt())).fold(
-            None,
-            |m: Option<(usize, f64)>, (k, d)| match m {
-                Some((_, md)) if md >= d => m,
-                _ => Some((k, d)),
-            },
-        );
-        if let Some((k, d)) = far {
-            // A stretch that returns to its start keeps its farthest point: a kept line
-            // is never degenerate.
-            if d > eps_mm || pts[a].dist(pts[b]) <= DEGENERATE_MM {
-                keep[k] = true;
-                stack.push((a, k));
-                stack.push((k, b));
-            }
-        }
-    }
-    keep
+    crate::geom::douglas_peucker(
+        pts.len(),
+        eps_mm,
+        |a, b, k| Line::new(pts[a], pts[b]).dist_sq(pts[k]).sqrt(),
+        |a, b| pts[a].dist(pts[b]) <= DEGENERATE_MM,
+    )
 }
 
 /// Merges every run of micro-legs (lines no longer than `micro_mm`, a CAM file's

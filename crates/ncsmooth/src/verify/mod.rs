@@ -2,7 +2,7 @@
 //!
 //! * [`deviation`]: the two-sided distance between an output path and the programmed one
 //!   (the tolerance contract), exact within a stated accuracy, O(n log n).
-//! * [`PathIndex`]: nearest distance from points to a path, for measurements built
+//! * [`NearestIndex`]: nearest distance from points to a path, for measurements built
 //!   elsewhere.
 //! * [`continuity`]: position, tangent and curvature continuity at every joint.
 //! * [`extra_axes_kept`]: a written program's extra axes where the program has them.
@@ -22,4 +22,4 @@ pub use deviation::{deviation, deviation_segments, deviation_with_vertex_distanc
 pub use extra_axes::{
     extra_axes_kept, extrusion_along_path, ExtraAxesMismatch, ExtrusionAlongPath,
 };
-pub use nearest::PathIndex;
+pub use nearest::NearestIndex;

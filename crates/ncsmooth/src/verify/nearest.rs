@@ -16,27 +16,27 @@ use crate::geom::{Line, ParamCurve, Segment, Vec3};
 ///
 /// ```
 /// use ncsmooth::geom::{Line, Segment, Vec3};
-/// use ncsmooth::verify::PathIndex;
+/// use ncsmooth::verify::NearestIndex;
 ///
 /// let l = Segment::Line(Line::new(Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)));
-/// let mut idx = PathIndex::new([&l], 1e-6);
+/// let mut idx = NearestIndex::new([&l], 1e-6);
 /// let (d, seg) = idx.nearest(Vec3::new(5.0, 2.0, 0.0));
 /// assert!((d - 2.0).abs() < 1e-12 && seg == 0);
 /// ```
-pub struct PathIndex {
+pub struct NearestIndex {
     bvh: Bvh,
     hint: usize,
 }
 
-impl PathIndex {
-    /// Indexes `segments` (in order; [`PathIndex::nearest`] returns positions in it),
+impl NearestIndex {
+    /// Indexes `segments` (in order; [`NearestIndex::nearest`] returns positions in it),
     /// flattening those that are not lines or planar arcs within `flatten_mm`.
     pub fn new<'a>(segments: impl IntoIterator<Item = &'a Segment>, flatten_mm: f64) -> Self {
         let mut prims = Vec::new();
         for (i, s) in segments.into_iter().enumerate() {
             push_prims(s, i as u32, flatten_mm, &mut prims);
         }
-        PathIndex {
+        NearestIndex {
             bvh: Bvh::new(prims),
             hint: 0,
         }
@@ -67,7 +67,7 @@ impl PathIndex {
         self.nearest(p).0
     }
 
-    /// [`PathIndex::nearest`]'s distance, and the nearest primitive when it is a line (a
+    /// [`NearestIndex::nearest`]'s distance, and the nearest primitive when it is a line (a
     /// line segment of the path, or of a flattened curve): the distance to it is convex,
     /// so over a convex set it is largest at an extreme point.
     pub fn nearest_line(&mut self, p: Vec3) -> (f64, Option<Line>) {
@@ -80,7 +80,7 @@ impl PathIndex {
     }
 
     /// An upper bound on the distance to the path over the convex hull of `hull`, when the
-    /// primitive nearest the last query ([`PathIndex::nearest`]) is a planar arc: the
+    /// primitive nearest the last query ([`NearestIndex::nearest`]) is a planar arc: the
     /// largest distance of a point of `hull` to the chord of the arc between its points'
     /// feet (the distance to a line segment is convex, so over the hull it is largest at a
     /// point of `hull`), plus the chord's sagitta (every point of the chord is within it
@@ -126,7 +126,7 @@ impl PathIndex {
     }
 }
 
-/// Largest angle (rad) of an arc that [`PathIndex::arc_hull_bound`] replaces by its chord.
+/// Largest angle (rad) of an arc that [`NearestIndex::arc_hull_bound`] replaces by its chord.
 pub const MAX_HULL_FOOT_SPAN_RAD: f64 = std::f64::consts::FRAC_PI_2;
 
 #[cfg(test)]
@@ -147,12 +147,12 @@ mod tests {
         )
         .unwrap();
         let segs = [l, Segment::Arc(a)];
-        let mut idx = PathIndex::new(&segs, 1e-6);
+        let mut idx = NearestIndex::new(&segs, 1e-6);
         let (d, k) = idx.nearest(Vec3::new(3.0, -1.0, 0.0));
         assert!((d - 1.0).abs() < 1e-12 && k == 0);
         // (20, 5) is 5 from the circle of radius 5 about (10, 5).
         let (d, k) = idx.nearest(Vec3::new(20.0, 5.0, 0.0));
         assert!((d - 5.0).abs() < 1e-12 && k == 1);
-        assert_eq!(PathIndex::new([], 1e-6).dist(Vec3::ZERO), f64::INFINITY);
+        assert_eq!(NearestIndex::new([], 1e-6).dist(Vec3::ZERO), f64::INFINITY);
     }
 }

@@ -60,7 +60,7 @@ use crate::interp::program::Program;
 use crate::source::PathMode;
 use ncsmooth::geom::{Line, ParamCurve, Segment, Vec3};
 use ncsmooth::path::MoveKind;
-use ncsmooth::verify::{Deviation, PathIndex};
+use ncsmooth::verify::{Deviation, NearestIndex};
 use ncsmooth::Toolpath;
 
 /// Turn (rad) below which two lines are collinear: no blend, no deviation.
@@ -286,7 +286,7 @@ pub fn linuxcnc_executed(
     // (a): the written path, the halves of the moves at a counted join with its blend on
     // top, and every blend's region.
     let mut a = written_dev.output_to_programmed_mm;
-    let mut prog = PathIndex::new(programmed.moves().map(|m| &m.segment), flat);
+    let mut prog = NearestIndex::new(programmed.moves().map(|m| &m.segment), flat);
     for (k, j) in joins.iter().enumerate() {
         match j {
             Join::Blend(b) => a = region_sup(b, &mut prog, a, slack),
@@ -303,7 +303,7 @@ pub fn linuxcnc_executed(
         }
     }
     // (b): every programmed vertex to the piece holding its nearest written point.
-    let mut out = PathIndex::new(moves.iter().map(|m| m.0), flat);
+    let mut out = NearestIndex::new(moves.iter().map(|m| m.0), flat);
     let mut b = 0.0_f64;
     let vertices = programmed
         .moves()
@@ -334,7 +334,7 @@ pub fn linuxcnc_executed(
 /// The largest distance to the programmed path over the region of `b`'s family, or `best`
 /// when that is larger (within `slack`): branch and bound on slices of the region between
 /// two fibres ([`BlendArc::slice`]).
-fn region_sup(b: &BlendArc, prog: &mut PathIndex, mut best: f64, slack: f64) -> f64 {
+fn region_sup(b: &BlendArc, prog: &mut NearestIndex, mut best: f64, slack: f64) -> f64 {
     let along = b.along_t_mm();
     let mut bound = |t0: f64, t1: f64, best: &mut f64| {
         let tm = 0.5 * (t0 + t1);
@@ -403,7 +403,7 @@ fn half_sup(
     seg: &Segment,
     t0: f64,
     t1: f64,
-    prog: &mut PathIndex,
+    prog: &mut NearestIndex,
     mut best: f64,
     slack: f64,
 ) -> Option<f64> {
