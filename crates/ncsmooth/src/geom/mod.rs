@@ -20,7 +20,7 @@ pub use cubic_bez::CubicBez;
 pub use line::Line;
 pub use nurbs::{Nurbs, PreparedNurbs, MAX_DEGREE};
 pub use segment::Segment;
-pub use simplify::douglas_peucker;
+pub use simplify::{douglas_peucker, douglas_peucker_from};
 pub use traits::*;
 pub use trig_spline::{
     basis as trig_basis, basis_deriv as trig_basis_deriv, PreparedTrig, TrigSpline,

@@ -30,13 +30,20 @@ pub fn douglas_peucker(
     dist: impl Fn(usize, usize, usize) -> f64,
     split: impl Fn(usize, usize) -> bool,
 ) -> Vec<bool> {
-    let mut keep = vec![false; n];
-    if n == 0 {
-        return keep;
-    }
-    keep[0] = true;
-    keep[n - 1] = true;
-    let mut stack = vec![(0, n - 1)];
+    let keep: Vec<bool> = (0..n).map(|k| k == 0 || k + 1 == n).collect();
+    douglas_peucker_from(keep, tol, dist, split)
+}
+
+/// [`douglas_peucker`] from the points already marked in `keep` (the ends among them):
+/// each span between two consecutive kept points is simplified on its own.
+pub fn douglas_peucker_from(
+    mut keep: Vec<bool>,
+    tol: f64,
+    dist: impl Fn(usize, usize, usize) -> f64,
+    split: impl Fn(usize, usize) -> bool,
+) -> Vec<bool> {
+    let fixed: Vec<usize> = (0..keep.len()).filter(|&k| keep[k]).collect();
+    let mut stack: Vec<(usize, usize)> = fixed.windows(2).map(|w| (w[0], w[1])).collect();
     while let Some((a, b)) = stack.pop() {
         let mut far: Option<(usize, f64)> = None;
         for k in a + 1..b {

@@ -29,7 +29,7 @@
 //! spread over each move's own length. Merged moves take the line number of the first
 //! move they replace.
 
-use crate::geom::{Line, ParamCurve, Segment, Vec3};
+use crate::geom::{Line, ParamCurve, Segment};
 use crate::path::{Move, MoveKind};
 use crate::verify::DEGENERATE_MM;
 
@@ -117,22 +117,16 @@ fn merge_group(group: &[Move], eps: f64, micro: f64, out: &mut Vec<Move>) {
     }
     // A point between two longer lines is the program's own shape; one next to a
     // micro-line may go.
-    let mut keep: Vec<bool> = (0..n)
+    let keep: Vec<bool> = (0..n)
         .map(|k| {
             k == 0
                 || k == n - 1
                 || (pts[k].dist(pts[k - 1]) >= micro && pts[k + 1].dist(pts[k]) >= micro)
         })
         .collect();
-    let fixed: Vec<usize> = (0..n).filter(|&k| keep[k]).collect();
-    let mut stack: Vec<(usize, usize)> = fixed.windows(2).map(|w| (w[0], w[1])).collect();
-    while let Some((a, b)) = stack.pop() {
-        if let Some(k) = farthest(&pts, a, b, eps) {
-            keep[k] = true;
-            stack.push((a, k));
-            stack.push((k, b));
-        }
-    }
+    // Squared distances against `eps^2`.
+    let dist_sq = |a: usize, b: usize, k: usize| Line::new(pts[a], pts[b]).dist_sq(pts[k]);
+    let keep = crate::geom::douglas_peucker_from(keep, eps * eps, dist_sq, |_, _| false);
     let mut from = 0;
     for k in 1..n {
         if !keep[k] {
@@ -151,20 +145,10 @@ fn merge_group(group: &[Move], eps: f64, micro: f64, out: &mut Vec<Move>) {
     }
 }
 
-/// The point strictly between `a` and `b` farthest from the chord `pts[a]`-`pts[b]`, when
-/// it lies more than `eps` from it.
-fn farthest(pts: &[Vec3], a: usize, b: usize, eps: f64) -> Option<usize> {
-    let chord = Line::new(pts[a], pts[b]);
-    (a + 1..b)
-        .map(|k| (k, chord.dist_sq(pts[k])))
-        .filter(|&(_, d2)| d2 > eps * eps)
-        .max_by(|x, y| x.1.total_cmp(&y.1))
-        .map(|(k, _)| k)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::Vec3;
     use proptest::prelude::*;
 
     fn moves_of(pts: &[Vec3]) -> Vec<Move> {
