@@ -122,13 +122,11 @@ pub fn compare(job: &CompareJob, out: &Path, setpoints: bool, ui: Ui) -> Result<
 /// The limits `compare` plans under, validated (bad input otherwise).
 pub fn limits(feed: f64, acc: &str, jerk: Option<&str>, period: f64) -> Result<PlanOptions> {
     ncsmooth_gcode::check_period(period).map_err(job_error)?;
-    let popts = PlanOptions {
-        feed_mm_s: feed,
-        acc_mm_s2: axes("acc", acc)?,
-        jerk_mm_s3: jerk.map(|j| axes("jerk", j)).transpose()?,
-        period_s: period,
-        ..Default::default()
-    };
+    let popts = PlanOptions::default()
+        .with_feed_mm_s(feed)
+        .with_acc_mm_s2(axes("acc", acc)?)
+        .with_jerk_mm_s3(jerk.map(|j| axes("jerk", j)).transpose()?)
+        .with_period_s(period);
     popts
         .validate()
         .map_err(|e| io::BadInput(format!("--{e}")))?;

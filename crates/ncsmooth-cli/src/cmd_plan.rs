@@ -365,33 +365,29 @@ fn write_json(a: &PlanArgs, run: &PlanRunReport, out: &mut Option<OutputFile>) -
 
 /// The job these arguments ask for.
 fn plan_job(a: &PlanArgs) -> Result<PlanJob> {
-    let plan = PlanOptions {
-        feed_mm_s: a.feed,
-        rapid_mm_s: a.rapid,
-        acc_mm_s2: axes("acc", &a.acc)?,
-        jerk_mm_s3: a.jerk.as_deref().map(|v| axes("jerk", v)).transpose()?,
-        vaxis_mm_s: a.vaxis.as_deref().map(|v| axes("vaxis", v)).transpose()?,
-        period_s: a.period,
-        chord_error_mm: a.chord_error,
-        junction_dev_mm: a.junction_dev,
-        jerk_split: None,
-        jerk_scheme: match a.jerk_scheme {
+    let plan = PlanOptions::default()
+        .with_feed_mm_s(a.feed)
+        .with_rapid_mm_s(a.rapid)
+        .with_acc_mm_s2(axes("acc", &a.acc)?)
+        .with_jerk_mm_s3(a.jerk.as_deref().map(|v| axes("jerk", v)).transpose()?)
+        .with_vaxis_mm_s(a.vaxis.as_deref().map(|v| axes("vaxis", v)).transpose()?)
+        .with_period_s(a.period)
+        .with_chord_error_mm(a.chord_error)
+        .with_junction_dev_mm(a.junction_dev)
+        .with_jerk_scheme(match a.jerk_scheme {
             JerkSchemeArg::Filter => JerkScheme::Filter,
             JerkSchemeArg::Follow => JerkScheme::Follow,
-        },
-        top_speed_mm_s: None,
-    };
-    let interp = InterpOptions {
-        method: match a.interp {
+        });
+    let interp = InterpOptions::default()
+        .with_method(match a.interp {
             InterpArg::Newton => InterpMethod::Newton,
             InterpArg::Taylor1 => InterpMethod::Taylor1,
             InterpArg::Taylor2 => InterpMethod::Taylor2,
-        },
-        eta_tol: a.eta_tol,
-        max_iters: a.newton_iters,
-        stop_on_either: a.newton_stop == NewtonStop::Either,
-        arc_correction: !a.no_arc_correction,
-    };
+        })
+        .with_eta_tol(a.eta_tol)
+        .with_max_iters(a.newton_iters)
+        .with_stop_on_either(a.newton_stop == NewtonStop::Either)
+        .with_arc_correction(!a.no_arc_correction);
     Ok(PlanJob::new(a.method.into(), a.tol)
         .with_time_shape(a.time_shape)
         .with_plan_options(plan)

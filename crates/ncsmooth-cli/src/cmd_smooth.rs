@@ -160,11 +160,9 @@ fn to_nm(v: f64) -> f64 {
 impl SmoothArgs {
     /// The smoothing options these arguments ask for (tolerance set later).
     pub fn options(&self) -> Result<SmoothOptions> {
-        let mut o = SmoothOptions {
-            method: self.method.into(),
-            straight_angle_deg: self.straight_angle,
-            ..Default::default()
-        };
+        let mut o = SmoothOptions::default()
+            .with_method(self.method.into())
+            .with_straight_angle_deg(self.straight_angle);
         if self.corner == CornerArg::Loop {
             if self.method.0 != Method::Trig {
                 return Err(io::BadInput("--corner loop needs --method trig".into()).into());

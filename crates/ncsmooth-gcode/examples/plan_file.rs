@@ -20,11 +20,9 @@ pub fn plan_file(
     acc_mm_s2: f64,
     out: impl Write + Send,
 ) -> Result<PlanRunReport, Box<dyn Error>> {
-    let limits = PlanOptions {
-        feed_mm_s,
-        acc_mm_s2: [acc_mm_s2; 3],
-        ..Default::default()
-    };
+    let limits = PlanOptions::default()
+        .with_feed_mm_s(feed_mm_s)
+        .with_acc_mm_s2([acc_mm_s2; 3]);
     let job = PlanJob::new(Method::Bspline, 0.01).with_plan_options(limits);
     let input = PlanInput::File {
         name: path,

@@ -9,11 +9,9 @@ fn main() {
     let p = ncsmooth_gcode::parse_bytes(&src, &a[1], &Default::default()).expect("parses");
     let method = ncsmooth::smooth::Method::from_name(&a[2]).expect("method");
     let tol: f64 = a[3].parse().expect("tol");
-    let opts = ncsmooth::smooth::SmoothOptions {
-        method,
-        tol_mm: tol * 0.8,
-        ..Default::default()
-    };
+    let opts = ncsmooth::smooth::SmoothOptions::default()
+        .with_method(method)
+        .with_tol_mm(tol * 0.8);
     let s = ncsmooth::smooth::smooth(&p.toolpath, &opts).expect("smooths");
     check_order(&s.toolpath);
     if let Ok(r) = std::env::var("TAGS") {

@@ -48,11 +48,9 @@ fn main() {
     stream.verify_accuracy_mm = std::env::var_os("NOVERIFY")
         .is_none()
         .then_some(MEASURE_ACCURACY_MM);
-    let opts = SmoothOptions {
-        method,
-        tol_mm,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(method)
+        .with_tol_mm(tol_mm);
 
     let clock = Instant::now();
     let popts = ParseOptions::default();

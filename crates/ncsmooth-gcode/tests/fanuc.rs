@@ -297,11 +297,9 @@ fn smoothing_a_fanuc_program_keeps_its_subprograms() {
     assert_eq!(pinned(&p.toolpath).len(), 3 * (1 + 40) + 1);
     for method in [Method::Bspline, Method::Arc, Method::Nurbs, Method::Trig] {
         let rounding = ncsmooth_gcode::writer::rounding_mm(DECIMALS);
-        let opts = SmoothOptions {
-            method,
-            tol_mm: TOL_MM - CHORD_MM - rounding,
-            ..Default::default()
-        };
+        let opts = SmoothOptions::default()
+            .with_method(method)
+            .with_tol_mm(TOL_MM - CHORD_MM - rounding);
         let out = smooth(&p.toolpath, &opts).unwrap().toolpath;
         assert_eq!(pinned(&out), pinned(&p.toolpath), "{method:?}");
         let text = rewrite(

@@ -537,11 +537,9 @@ fn bspline_smoothed(src: &str) -> (Program, Toolpath) {
 /// `p` smoothed by `method` within 0.05 mm.
 fn smoothed_with(p: &Program, method: ncsmooth::smooth::Method) -> Toolpath {
     use ncsmooth::smooth::{smooth, SmoothOptions};
-    let opts = SmoothOptions {
-        method,
-        tol_mm: 0.05,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(method)
+        .with_tol_mm(0.05);
     smooth(&p.toolpath, &opts).unwrap().toolpath
 }
 
@@ -591,11 +589,9 @@ fn nurbs_are_written_exactly_span_by_span() {
     }
     src += "M2\n";
     let p = parse(&src).unwrap();
-    let opts = SmoothOptions {
-        method: Method::Nurbs,
-        tol_mm: 0.01,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(Method::Nurbs)
+        .with_tol_mm(0.01);
     let smoothed = smooth(&p.toolpath, &opts).unwrap().toolpath;
     let n_nurbs = smoothed
         .moves()

@@ -52,11 +52,9 @@ fn chains(tp: &Toolpath) -> Vec<Vec<Move>> {
 }
 
 fn bench(c: &mut Criterion) {
-    let opts = SmoothOptions {
-        method: Method::Bspline,
-        tol_mm: 0.01,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(Method::Bspline)
+        .with_tol_mm(0.01);
     for (name, rel) in [
         ("butterfly_1000", "profiles/butterfly_1000.ngc"),
         ("camotics_tiger", "gcode/camotics_tiger.nc"),

@@ -18,10 +18,7 @@ fn paths() -> Vec<(&'static str, Toolpath, PlanOptions)> {
         (
             "butterfly_1000_lines_jd",
             lines,
-            PlanOptions {
-                junction_dev_mm: Some(0.01),
-                ..Default::default()
-            },
+            PlanOptions::default().with_junction_dev_mm(Some(0.01)),
         ),
         ("butterfly_nurbs", nurbs, PlanOptions::default()),
     ]

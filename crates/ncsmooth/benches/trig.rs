@@ -38,15 +38,10 @@ fn spiral() -> Toolpath {
 }
 
 fn opts(corner: CornerStyle) -> SmoothOptions {
-    SmoothOptions {
-        method: Method::Trig,
-        tol_mm: 0.01,
-        trig: TrigOptions {
-            corner,
-            ..Default::default()
-        },
-        ..Default::default()
-    }
+    SmoothOptions::default()
+        .with_method(Method::Trig)
+        .with_tol_mm(0.01)
+        .with_trig(TrigOptions::default().with_corner(corner))
 }
 
 fn bench(c: &mut Criterion) {

@@ -37,11 +37,9 @@ fn samples(n: usize) -> Vec<Vec3> {
 fn bench(c: &mut Criterion) {
     let n = 10_000;
     let tp = Toolpath::from_polyline(&corners(n), Some(10.0));
-    let opts = SmoothOptions {
-        method: Method::Arc,
-        tol_mm: 0.01,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(Method::Arc)
+        .with_tol_mm(0.01);
     let mut g = c.benchmark_group("arc_corners");
     g.throughput(Throughput::Elements((n - 1) as u64));
     g.bench_function("10k_corners", |b| b.iter(|| smooth(black_box(&tp), &opts)));
@@ -59,11 +57,9 @@ fn bench(c: &mut Criterion) {
 
     let pts = samples(5_000);
     let tp = Toolpath::from_polyline(&pts, Some(10.0));
-    let opts = SmoothOptions {
-        method: Method::Nurbs,
-        tol_mm: 0.01,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(Method::Nurbs)
+        .with_tol_mm(0.01);
     let mut g = c.benchmark_group("nurbs_method");
     g.sample_size(10);
     g.throughput(Throughput::Elements(pts.len() as u64));

@@ -486,11 +486,9 @@ fn main() {
     } else {
         Reference::polyline(tp)
     };
-    let opts = PlanOptions {
-        feed_mm_s: a.feed,
-        acc_mm_s2: [a.acc; 3],
-        ..Default::default()
-    };
+    let opts = PlanOptions::default()
+        .with_feed_mm_s(a.feed)
+        .with_acc_mm_s2([a.acc; 3]);
     println!(
         "{}: tol {} mm, feed {} mm/s, acc {} mm/s^2, T {} s, curvature step {} mm, reference {}",
         a.file,
@@ -515,12 +513,10 @@ fn main() {
         analyse(&a, "exact_nurbs", &exact, tp, &reference, &opts);
     }
     for &method in &a.methods {
-        let so = SmoothOptions {
-            method,
-            tol_mm: a.tol,
-            run: a.run.clone(),
-            ..Default::default()
-        };
+        let so = SmoothOptions::default()
+            .with_method(method)
+            .with_tol_mm(a.tol)
+            .with_run(a.run.clone());
         let out = smooth(tp, &so).expect("valid options").toolpath;
         analyse(&a, method.name(), &out, tp, &reference, &opts);
     }

@@ -36,18 +36,14 @@ fn main() {
     let period: f64 = args.get(5).map_or(0.001, |a| a.parse().expect("period"));
     let s = smooth(
         &prog.toolpath,
-        &SmoothOptions {
-            method,
-            tol_mm: tol,
-            ..Default::default()
-        },
+        &SmoothOptions::default()
+            .with_method(method)
+            .with_tol_mm(tol),
     )
     .expect("valid options");
-    let opts = PlanOptions {
-        acc_mm_s2: [acc; 3],
-        period_s: period,
-        ..Default::default()
-    };
+    let opts = PlanOptions::default()
+        .with_acc_mm_s2([acc; 3])
+        .with_period_s(period);
     let index = PathIndex::new(&s.toolpath, &opts);
     let mut pieces = Vec::new();
     let clock = Instant::now();

@@ -27,11 +27,9 @@ fn key(p: Vec3) -> [u64; 3] {
 /// paper's transitions alone) and checks the contract; returns the report and the
 /// measured worst deviation / tol.
 fn run(name: &str, tp: &Toolpath, tol: f64, runs: bool) -> (SmoothReport, f64, Toolpath) {
-    let mut opts = SmoothOptions {
-        method: Method::Bspline,
-        tol_mm: tol,
-        ..Default::default()
-    };
+    let mut opts = SmoothOptions::default()
+        .with_method(Method::Bspline)
+        .with_tol_mm(tol);
     opts.run.enabled = runs;
     let out = smooth(tp, &opts).unwrap();
     let d = deviation(&out.toolpath, tp, tol * 1e-3);

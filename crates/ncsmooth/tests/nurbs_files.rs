@@ -18,11 +18,9 @@ use common::{data_path as data, parse_file as load};
 
 /// Smooths `tp` and checks the contract; returns deviation / tol and the report.
 fn check(name: &str, tp: &Toolpath, method: Method, tol: f64) -> (f64, SmoothReport) {
-    let opts = SmoothOptions {
-        method,
-        tol_mm: tol,
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(method)
+        .with_tol_mm(tol);
     let s = smooth(tp, &opts).unwrap();
     for m in s.toolpath.moves() {
         assert!(

@@ -17,21 +17,17 @@ fn wu_with(rel: &str, method: Method, jerk: Option<f64>) -> Option<PlanReport> {
     let tp = load(rel)?;
     let tp = smooth(
         &tp,
-        &SmoothOptions {
-            method,
-            tol_mm: 0.05,
-            ..Default::default()
-        },
+        &SmoothOptions::default()
+            .with_method(method)
+            .with_tol_mm(0.05),
     )
     .unwrap()
     .toolpath;
-    let p = PlanOptions {
-        period_s: 0.002,
-        feed_mm_s: 50.0,
-        acc_mm_s2: [500.0; 3],
-        jerk_mm_s3: jerk.map(|j| [j; 3]),
-        ..Default::default()
-    };
+    let p = PlanOptions::default()
+        .with_period_s(0.002)
+        .with_feed_mm_s(50.0)
+        .with_acc_mm_s2([500.0; 3])
+        .with_jerk_mm_s3(jerk.map(|j| [j; 3]));
     let (rep, _) = execute(&tp, &p, &InterpOptions::default(), std::io::sink()).unwrap();
     if jerk.is_some() {
         for a in &rep.axes {

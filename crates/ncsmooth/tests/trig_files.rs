@@ -40,15 +40,10 @@ fn chain_break_joints(tp: &Toolpath) -> usize {
 /// Smooths `rel` and checks the contract; returns the worst deviation / tol.
 fn run(rel: &str, tol: f64, corner: CornerStyle) -> Option<f64> {
     let tp = load(rel)?;
-    let opts = SmoothOptions {
-        method: Method::Trig,
-        tol_mm: tol,
-        trig: TrigOptions {
-            corner,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let opts = SmoothOptions::default()
+        .with_method(Method::Trig)
+        .with_tol_mm(tol)
+        .with_trig(TrigOptions::default().with_corner(corner));
     let t = std::time::Instant::now();
     let s = smooth(&tp, &opts).expect("valid options");
     let secs = t.elapsed().as_secs_f64();

@@ -149,10 +149,7 @@ impl SmoothJob {
     /// defaults above.
     pub fn new(method: Method, tol_mm: f64) -> SmoothJob {
         SmoothJob {
-            smooth: SmoothOptions {
-                method,
-                ..Default::default()
-            },
+            smooth: SmoothOptions::default().with_method(method),
             tol_mm,
             chord_mm: None,
             decimals: 4,

@@ -137,10 +137,7 @@ impl SmoothJob {
     /// The method's options for the curve tolerance, and the loop size the loops are
     /// built to in loop mode.
     fn curve_options(&self, s: &Shares) -> Result<(SmoothOptions, Option<f64>), JobError> {
-        let mut opts = SmoothOptions {
-            tol_mm: s.curve_tol,
-            ..self.smooth.clone()
-        };
+        let mut opts = self.smooth.clone().with_tol_mm(s.curve_tol);
         if s.blend.is_some() {
             // LinuxCNC's blends follow the written curve's own radius: the run fit is run to
             // its minimum (ncsmooth::smooth::band_fit::BandFitOptions::converged).

@@ -167,6 +167,7 @@ pub fn min_feed_mm_s(period_s: f64) -> f64 {
 
 /// Machine limits and planning settings.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct PlanOptions {
     /// Largest feed (mm/s); a lower programmed F wins. Default 50 mm/s.
     pub feed_mm_s: f64,
@@ -200,6 +201,75 @@ pub struct PlanOptions {
     /// move reaches. Default `None`: [`crate::interp::execute_into`] finds it on the
     /// path; a streamed plan takes the feed and rapid limits.
     pub top_speed_mm_s: Option<f64>,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl PlanOptions {
+    /// Sets [`PlanOptions::feed_mm_s`].
+    pub fn with_feed_mm_s(mut self, feed_mm_s: f64) -> Self {
+        self.feed_mm_s = feed_mm_s;
+        self
+    }
+
+    /// Sets [`PlanOptions::rapid_mm_s`].
+    pub fn with_rapid_mm_s(mut self, rapid_mm_s: Option<f64>) -> Self {
+        self.rapid_mm_s = rapid_mm_s;
+        self
+    }
+
+    /// Sets [`PlanOptions::acc_mm_s2`].
+    pub fn with_acc_mm_s2(mut self, acc_mm_s2: [f64; 3]) -> Self {
+        self.acc_mm_s2 = acc_mm_s2;
+        self
+    }
+
+    /// Sets [`PlanOptions::jerk_mm_s3`].
+    pub fn with_jerk_mm_s3(mut self, jerk_mm_s3: Option<[f64; 3]>) -> Self {
+        self.jerk_mm_s3 = jerk_mm_s3;
+        self
+    }
+
+    /// Sets [`PlanOptions::vaxis_mm_s`].
+    pub fn with_vaxis_mm_s(mut self, vaxis_mm_s: Option<[f64; 3]>) -> Self {
+        self.vaxis_mm_s = vaxis_mm_s;
+        self
+    }
+
+    /// Sets [`PlanOptions::period_s`].
+    pub fn with_period_s(mut self, period_s: f64) -> Self {
+        self.period_s = period_s;
+        self
+    }
+
+    /// Sets [`PlanOptions::chord_error_mm`].
+    pub fn with_chord_error_mm(mut self, chord_error_mm: f64) -> Self {
+        self.chord_error_mm = chord_error_mm;
+        self
+    }
+
+    /// Sets [`PlanOptions::junction_dev_mm`].
+    pub fn with_junction_dev_mm(mut self, junction_dev_mm: Option<f64>) -> Self {
+        self.junction_dev_mm = junction_dev_mm;
+        self
+    }
+
+    /// Sets [`PlanOptions::jerk_split`].
+    pub fn with_jerk_split(mut self, jerk_split: Option<jerk::JerkSplit>) -> Self {
+        self.jerk_split = jerk_split;
+        self
+    }
+
+    /// Sets [`PlanOptions::jerk_scheme`].
+    pub fn with_jerk_scheme(mut self, jerk_scheme: JerkScheme) -> Self {
+        self.jerk_scheme = jerk_scheme;
+        self
+    }
+
+    /// Sets [`PlanOptions::top_speed_mm_s`].
+    pub fn with_top_speed_mm_s(mut self, top_speed_mm_s: Option<f64>) -> Self {
+        self.top_speed_mm_s = top_speed_mm_s;
+        self
+    }
 }
 
 /// How jerk mode makes its S-curve.

@@ -133,6 +133,7 @@ impl InterpMethod {
 
 /// Interpolation settings.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct InterpOptions {
     /// Method. Default Newton.
     pub method: InterpMethod,
@@ -151,6 +152,39 @@ pub struct InterpOptions {
     /// miss then shows as feed fluctuation and finite-difference noise (never as drift:
     /// the next step aims at the plan again).
     pub arc_correction: bool,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl InterpOptions {
+    /// Sets [`InterpOptions::method`].
+    pub fn with_method(mut self, method: InterpMethod) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// Sets [`InterpOptions::eta_tol`].
+    pub fn with_eta_tol(mut self, eta_tol: f64) -> Self {
+        self.eta_tol = eta_tol;
+        self
+    }
+
+    /// Sets [`InterpOptions::max_iters`].
+    pub fn with_max_iters(mut self, max_iters: usize) -> Self {
+        self.max_iters = max_iters;
+        self
+    }
+
+    /// Sets [`InterpOptions::stop_on_either`].
+    pub fn with_stop_on_either(mut self, stop_on_either: bool) -> Self {
+        self.stop_on_either = stop_on_either;
+        self
+    }
+
+    /// Sets [`InterpOptions::arc_correction`].
+    pub fn with_arc_correction(mut self, arc_correction: bool) -> Self {
+        self.arc_correction = arc_correction;
+        self
+    }
 }
 
 impl Default for InterpOptions {

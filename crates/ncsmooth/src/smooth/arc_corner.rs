@@ -83,11 +83,21 @@ pub const MICRO_LEG_SHARE: f64 = 0.02;
 
 /// Settings of `--method arc` (and of the corners of `--method nurbs`).
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct ArcOptions {
     /// Smallest transition radius (mm): corners that would need a smaller arc (near
     /// reversals, see the module doc) stay exact stops. Default 1e-4 mm (0.1 um), below the
     /// resolution of any G-code output and of any drive.
     pub min_radius_mm: f64,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl ArcOptions {
+    /// Sets [`ArcOptions::min_radius_mm`].
+    pub fn with_min_radius_mm(mut self, min_radius_mm: f64) -> Self {
+        self.min_radius_mm = min_radius_mm;
+        self
+    }
 }
 
 impl Default for ArcOptions {

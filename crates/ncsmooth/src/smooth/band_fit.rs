@@ -136,6 +136,7 @@ pub enum EndCond {
 
 /// Settings of the band fit.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct BandFitOptions {
     /// Length `l` (mm) weighing curvature against curvature variation (module doc).
     /// Default 0.05 mm: on features longer than that (all but the tightest corners of
@@ -162,6 +163,51 @@ pub struct BandFitOptions {
     /// points having settled). Default 0: the first settled iterate;
     /// [`BandFitOptions::converged`] sets [`ENERGY_SETTLE_SHARE`].
     pub energy_settle_share: f64,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl BandFitOptions {
+    /// Sets [`BandFitOptions::smoothing_len_mm`].
+    pub fn with_smoothing_len_mm(mut self, smoothing_len_mm: f64) -> Self {
+        self.smoothing_len_mm = smoothing_len_mm;
+        self
+    }
+
+    /// Sets [`BandFitOptions::band_share`].
+    pub fn with_band_share(mut self, band_share: f64) -> Self {
+        self.band_share = band_share;
+        self
+    }
+
+    /// Sets [`BandFitOptions::max_iters`].
+    pub fn with_max_iters(mut self, max_iters: usize) -> Self {
+        self.max_iters = max_iters;
+        self
+    }
+
+    /// Sets [`BandFitOptions::max_refinements`].
+    pub fn with_max_refinements(mut self, max_refinements: usize) -> Self {
+        self.max_refinements = max_refinements;
+        self
+    }
+
+    /// Sets [`BandFitOptions::time_shape`].
+    pub fn with_time_shape(mut self, time_shape: Option<TimeShapeOptions>) -> Self {
+        self.time_shape = time_shape;
+        self
+    }
+
+    /// Sets [`BandFitOptions::min_knot_span_mm`].
+    pub fn with_min_knot_span_mm(mut self, min_knot_span_mm: f64) -> Self {
+        self.min_knot_span_mm = min_knot_span_mm;
+        self
+    }
+
+    /// Sets [`BandFitOptions::energy_settle_share`].
+    pub fn with_energy_settle_share(mut self, energy_settle_share: f64) -> Self {
+        self.energy_settle_share = energy_settle_share;
+        self
+    }
 }
 
 impl Default for BandFitOptions {
@@ -197,6 +243,7 @@ impl BandFitOptions {
 /// The run mode of the methods (see the module doc): whether it is on, which junctions
 /// form runs, and the fit.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct RunOptions {
     /// Fit runs of micro-corners as one curve. Default true; false gives every method its
     /// paper's corner-by-corner behaviour.
@@ -209,6 +256,33 @@ pub struct RunOptions {
     /// before a chain is smoothed ([`super::simplify`]; the method then smooths within
     /// the rest). Default [`MERGE_SHARE`]; 0 merges nothing. Applies only with `enabled`.
     pub merge_share: f64,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl RunOptions {
+    /// Sets [`RunOptions::enabled`].
+    pub fn with_enabled(mut self, enabled: bool) -> Self {
+        self.enabled = enabled;
+        self
+    }
+
+    /// Sets [`RunOptions::screen`].
+    pub fn with_screen(mut self, screen: ScreenOptions) -> Self {
+        self.screen = screen;
+        self
+    }
+
+    /// Sets [`RunOptions::fit`].
+    pub fn with_fit(mut self, fit: BandFitOptions) -> Self {
+        self.fit = fit;
+        self
+    }
+
+    /// Sets [`RunOptions::merge_share`].
+    pub fn with_merge_share(mut self, merge_share: f64) -> Self {
+        self.merge_share = merge_share;
+        self
+    }
 }
 
 /// Default [`RunOptions::merge_share`]: 0.3 of the tolerance. camotics_vcarve's clusters

@@ -71,6 +71,7 @@ pub struct TimeLimits {
 
 /// Settings of the time shaping.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct TimeShapeOptions {
     /// The limits of the speed model.
     pub limits: TimeLimits,
@@ -99,6 +100,69 @@ pub struct TimeShapeOptions {
     /// Rounds of coordinate sweeps, each followed by L-BFGS, at the last penalty weight.
     /// Default 4 (more rounds gain little: `docs/benchmarks/2026-12-02.md`).
     pub polish_rounds: usize,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl TimeShapeOptions {
+    /// Sets [`TimeShapeOptions::limits`].
+    pub fn with_limits(mut self, limits: TimeLimits) -> Self {
+        self.limits = limits;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::acc_share`].
+    pub fn with_acc_share(mut self, acc_share: f64) -> Self {
+        self.acc_share = acc_share;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::band_share`].
+    pub fn with_band_share(mut self, band_share: f64) -> Self {
+        self.band_share = band_share;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::slow_share`].
+    pub fn with_slow_share(mut self, slow_share: f64) -> Self {
+        self.slow_share = slow_share;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::window_mm`].
+    pub fn with_window_mm(mut self, window_mm: f64) -> Self {
+        self.window_mm = window_mm;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::free_half_mm`].
+    pub fn with_free_half_mm(mut self, free_half_mm: f64) -> Self {
+        self.free_half_mm = free_half_mm;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::dense_span_mm`].
+    pub fn with_dense_span_mm(mut self, dense_span_mm: f64) -> Self {
+        self.dense_span_mm = dense_span_mm;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::sample_mm`].
+    pub fn with_sample_mm(mut self, sample_mm: f64) -> Self {
+        self.sample_mm = sample_mm;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::max_iters`].
+    pub fn with_max_iters(mut self, max_iters: usize) -> Self {
+        self.max_iters = max_iters;
+        self
+    }
+
+    /// Sets [`TimeShapeOptions::polish_rounds`].
+    pub fn with_polish_rounds(mut self, polish_rounds: usize) -> Self {
+        self.polish_rounds = polish_rounds;
+        self
+    }
 }
 
 impl TimeShapeOptions {

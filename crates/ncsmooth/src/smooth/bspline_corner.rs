@@ -163,6 +163,7 @@ pub enum BandSemantics {
 
 /// Settings of [`Method::Bspline`](super::Method::Bspline).
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct BsplineOptions {
     /// Tolerance semantics. Default: [`BandSemantics::TwoSided`].
     pub band_semantics: BandSemantics,
@@ -175,6 +176,27 @@ pub struct BsplineOptions {
     /// Give the closing corner of a closed chain a transition (see the module
     /// documentation). Default true.
     pub smooth_closing_corner: bool,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl BsplineOptions {
+    /// Sets [`BsplineOptions::band_semantics`].
+    pub fn with_band_semantics(mut self, band_semantics: BandSemantics) -> Self {
+        self.band_semantics = band_semantics;
+        self
+    }
+
+    /// Sets [`BsplineOptions::lambda`].
+    pub fn with_lambda(mut self, lambda: f64) -> Self {
+        self.lambda = lambda;
+        self
+    }
+
+    /// Sets [`BsplineOptions::smooth_closing_corner`].
+    pub fn with_smooth_closing_corner(mut self, smooth_closing_corner: bool) -> Self {
+        self.smooth_closing_corner = smooth_closing_corner;
+        self
+    }
 }
 
 impl Default for BsplineOptions {

@@ -72,6 +72,7 @@ const OUTPUT_GROWTH: usize = 3;
 
 /// Options common to every method.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct SmoothOptions {
     /// Method. Default: [`Method::None`].
     pub method: Method,
@@ -92,6 +93,57 @@ pub struct SmoothOptions {
     /// micro-corners fitted as one curve through the band ([`band_fit`]). Default:
     /// [`band_fit::RunOptions::default`] (on).
     pub run: band_fit::RunOptions,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl SmoothOptions {
+    /// Sets [`SmoothOptions::method`].
+    pub fn with_method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// Sets [`SmoothOptions::tol_mm`].
+    pub fn with_tol_mm(mut self, tol_mm: f64) -> Self {
+        self.tol_mm = tol_mm;
+        self
+    }
+
+    /// Sets [`SmoothOptions::straight_angle_deg`].
+    pub fn with_straight_angle_deg(mut self, straight_angle_deg: f64) -> Self {
+        self.straight_angle_deg = straight_angle_deg;
+        self
+    }
+
+    /// Sets [`SmoothOptions::bspline`].
+    pub fn with_bspline(mut self, bspline: bspline_corner::BsplineOptions) -> Self {
+        self.bspline = bspline;
+        self
+    }
+
+    /// Sets [`SmoothOptions::arc`].
+    pub fn with_arc(mut self, arc: arc_corner::ArcOptions) -> Self {
+        self.arc = arc;
+        self
+    }
+
+    /// Sets [`SmoothOptions::nurbs`].
+    pub fn with_nurbs(mut self, nurbs: nurbs_hybrid::NurbsOptions) -> Self {
+        self.nurbs = nurbs;
+        self
+    }
+
+    /// Sets [`SmoothOptions::trig`].
+    pub fn with_trig(mut self, trig: trig_corner::TrigOptions) -> Self {
+        self.trig = trig;
+        self
+    }
+
+    /// Sets [`SmoothOptions::run`].
+    pub fn with_run(mut self, run: band_fit::RunOptions) -> Self {
+        self.run = run;
+        self
+    }
 }
 
 impl Default for SmoothOptions {

@@ -66,6 +66,7 @@ pub const FIT_DEGREE: usize = 3;
 
 /// Settings of `--method nurbs`.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct NurbsOptions {
     /// Screening of micro-line runs (eqs. 6-9). Default: [`ScreenOptions::default`].
     pub screen: ScreenOptions,
@@ -77,6 +78,33 @@ pub struct NurbsOptions {
     /// Accuracy of the fit-deviation measurement as a share of the tolerance. Default
     /// 0.01: the measured deviation is within 1 % of tol of the truth.
     pub fit_accuracy_share: f64,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl NurbsOptions {
+    /// Sets [`NurbsOptions::screen`].
+    pub fn with_screen(mut self, screen: ScreenOptions) -> Self {
+        self.screen = screen;
+        self
+    }
+
+    /// Sets [`NurbsOptions::parametrization`].
+    pub fn with_parametrization(mut self, parametrization: Parametrization) -> Self {
+        self.parametrization = parametrization;
+        self
+    }
+
+    /// Sets [`NurbsOptions::end_tangents`].
+    pub fn with_end_tangents(mut self, end_tangents: bool) -> Self {
+        self.end_tangents = end_tangents;
+        self
+    }
+
+    /// Sets [`NurbsOptions::fit_accuracy_share`].
+    pub fn with_fit_accuracy_share(mut self, fit_accuracy_share: f64) -> Self {
+        self.fit_accuracy_share = fit_accuracy_share;
+        self
+    }
 }
 
 impl Default for NurbsOptions {

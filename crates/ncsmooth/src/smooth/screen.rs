@@ -35,6 +35,7 @@ use crate::path::{extra_rate, extra_rates_agree, ExtraAxes};
 
 /// Screening settings (Wu et al. eqs. 6-9).
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct ScreenOptions {
     /// Fixed length cap `L_m` (mm). Default `None`: only the per-junction cap derived from
     /// the tolerance (condition 4 in the module doc).
@@ -51,6 +52,39 @@ pub struct ScreenOptions {
     pub chord_share: f64,
     /// Fewest lines in a run. Default 3 (4 points: the fewest a cubic fit needs).
     pub min_lines: usize,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl ScreenOptions {
+    /// Sets [`ScreenOptions::max_len_mm`].
+    pub fn with_max_len_mm(mut self, max_len_mm: Option<f64>) -> Self {
+        self.max_len_mm = max_len_mm;
+        self
+    }
+
+    /// Sets [`ScreenOptions::ratio_max`].
+    pub fn with_ratio_max(mut self, ratio_max: f64) -> Self {
+        self.ratio_max = ratio_max;
+        self
+    }
+
+    /// Sets [`ScreenOptions::min_angle_deg`].
+    pub fn with_min_angle_deg(mut self, min_angle_deg: f64) -> Self {
+        self.min_angle_deg = min_angle_deg;
+        self
+    }
+
+    /// Sets [`ScreenOptions::chord_share`].
+    pub fn with_chord_share(mut self, chord_share: f64) -> Self {
+        self.chord_share = chord_share;
+        self
+    }
+
+    /// Sets [`ScreenOptions::min_lines`].
+    pub fn with_min_lines(mut self, min_lines: usize) -> Self {
+        self.min_lines = min_lines;
+        self
+    }
 }
 
 impl Default for ScreenOptions {

@@ -89,7 +89,7 @@ impl Default for StreamOptions {
 ///     .map(|k| Vec3::new(k as f64, if k % 2 == 0 { 0.0 } else { 0.3 }, 0.0))
 ///     .collect();
 /// let program = Toolpath::from_polyline(&pts, Some(50.0));
-/// let opts = SmoothOptions { method: Method::Bspline, tol_mm: 0.01, ..Default::default() };
+/// let opts = SmoothOptions::default().with_method(Method::Bspline).with_tol_mm(0.01);
 /// let mut s = StreamSmoother::new(opts.clone(), StreamOptions::default()).unwrap();
 /// let mut out = Vec::new();
 /// for b in &program.blocks {

@@ -122,6 +122,7 @@ pub enum CornerStyle {
 
 /// Settings of the trig method.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct TrigOptions {
     /// Corner treatment. Default [`CornerStyle::Round`].
     pub corner: CornerStyle,
@@ -135,6 +136,33 @@ pub struct TrigOptions {
     /// Default 179: beyond it both constructions degenerate (`C1` and `C2`, or `B1`, `B2`
     /// and `B`, fall on one line).
     pub stop_turn_deg: f64,
+}
+
+/// Builders: each sets one field (see its doc for the default).
+impl TrigOptions {
+    /// Sets [`TrigOptions::corner`].
+    pub fn with_corner(mut self, corner: CornerStyle) -> Self {
+        self.corner = corner;
+        self
+    }
+
+    /// Sets [`TrigOptions::screen`].
+    pub fn with_screen(mut self, screen: ScreenOptions) -> Self {
+        self.screen = screen;
+        self
+    }
+
+    /// Sets [`TrigOptions::loop_min_turn_deg`].
+    pub fn with_loop_min_turn_deg(mut self, loop_min_turn_deg: f64) -> Self {
+        self.loop_min_turn_deg = loop_min_turn_deg;
+        self
+    }
+
+    /// Sets [`TrigOptions::stop_turn_deg`].
+    pub fn with_stop_turn_deg(mut self, stop_turn_deg: f64) -> Self {
+        self.stop_turn_deg = stop_turn_deg;
+        self
+    }
 }
 
 impl Default for TrigOptions {
