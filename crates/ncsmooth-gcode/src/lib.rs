@@ -11,8 +11,8 @@
 //!   millimetres. Errors are typed ([`ParseErrorKind`]) and located (file, line, column,
 //!   byte range); no input, however malformed, makes the parser panic.
 //! * [`rewrite()`]: a smoothed toolpath written back into the program's own text: every
-//!   line that is not smoothed motion is copied verbatim ([`mod@rewrite`]).
-//! * [`write()`]: a toolpath without source to G-code ([`writer`]), flattening what
+//!   line that is not smoothed motion is copied verbatim ([`write::rewrite`]).
+//! * [`write()`]: a toolpath without source to G-code ([`mod@write`]), flattening what
 //!   G-code cannot carry natively.
 //!
 //! See each module for the rules and the decisions taken where the standard leaves room.
@@ -80,59 +80,3 @@ pub use ncsmooth::path::Units;
 pub use source::{Plane, SourceMap};
 pub use write::rewrite::{rewrite, RewriteOptions};
 pub use write::{write, write_to, WriteOptions};
-
-/// The writer's numbers, plain writer, motion constants and LinuxCNC blend schedule, at
-/// their old path ([`numbers`], [`mod@write`], [`controller::linuxcnc::blend`]).
-pub mod writer {
-    // compatibility path
-    pub use crate::controller::linuxcnc::blend::{
-        BlendSchedule, RunEnd, RunEnds, BLEND_SCHEDULE_MIN_SHARE, BLEND_SCHEDULE_SPEED_PASSES,
-        BLEND_SCHEDULE_STEPS_PER_HALVING, LINUXCNC_BLEND_GAP_CYCLES, LINUXCNC_NORMAL_ACC_SHARE,
-        LINUXCNC_TANGENTIAL_ACC_SHARE, LINUXCNC_TANGENT_KINK_RATIO, ROOM_SAMPLES, SPLIT_CANDIDATES,
-        SPLIT_KINK_RATIO, SPLIT_MIN_GAIN, SPLIT_ROOM,
-    };
-    pub use crate::numbers::{
-        push_fixed, rounding_mm, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS,
-        PRINT_DECIMALS_MAX,
-    };
-    pub use crate::write::motion::{
-        EXACT_END_SNAP_MM, MIN_ARC_CHORD_MM, MIN_ARC_RADIUS_MM, NATIVE_ARC_MIN_BLOCKS,
-    };
-    pub use crate::write::{write, write_to, WriteOptions};
-}
-
-/// A program rewritten in its own text, at its old path ([`write::rewrite`]).
-pub mod rewrite {
-    // compatibility path
-    pub use crate::controller::linuxcnc::{Blend, CornerBlend};
-    pub use crate::write::rewrite::*;
-}
-
-/// Chains of long blocks, evening out and lifting, at their old path
-/// ([`write::chain`], [`controller::linuxcnc::even_out`], [`controller::floor`]).
-pub mod chain {
-    // compatibility path
-    pub use crate::controller::floor::{lift_short_blocks, Program};
-    pub use crate::controller::linuxcnc::even_out::{
-        even_out, EvenOut, EVEN_OUT_STEPS, EVEN_OUT_SWEEPS,
-    };
-    pub use crate::write::chain::*;
-}
-
-/// Extra axes along a chain, at their old path ([`write::chain_extra`]).
-pub mod chain_extra {
-    // compatibility path
-    pub use crate::write::chain_extra::*;
-}
-
-/// The capability table, at its old path ([`controller::dialect`]).
-pub mod dialect {
-    // compatibility path
-    pub use crate::controller::dialect::*;
-}
-
-/// LinuxCNC's executed path, at its old path ([`controller::linuxcnc::executed`]).
-pub mod executed {
-    // compatibility path
-    pub use crate::controller::linuxcnc::executed::*;
-}

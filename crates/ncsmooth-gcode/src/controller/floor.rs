@@ -9,7 +9,7 @@ use ncsmooth::geom::Vec3;
 
 /// The programmed path of the moves being written and the tolerance left for the written
 /// blocks against it: blocks shorter than `min_block_mm` are lifted where the program
-/// allows ([`crate::chain::lift_short_blocks`]).
+/// allows ([`crate::controller::floor::lift_short_blocks`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct Floor {
     /// The programmed path as a polyline (mm).
@@ -26,7 +26,7 @@ pub(crate) struct Floor {
 }
 
 impl Floor {
-    /// The programmed path as the block floor's [`crate::chain::Program`].
+    /// The programmed path as the block floor's [`crate::controller::floor::Program`].
     pub(crate) fn program_ref(&self) -> Program<'_> {
         Program {
             points: &self.program,

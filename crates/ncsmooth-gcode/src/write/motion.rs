@@ -49,7 +49,7 @@ pub(crate) struct MotionWriter {
     /// Under a long-lines emitter, short blocks are lifted against this program.
     pub floor: Option<Floor>,
     /// LinuxCNC's `G64 P` of the runs (mm): the long-lines emitter evens out its blocks
-    /// for the blends ([`crate::chain::even_out`]).
+    /// for the blends ([`crate::controller::linuxcnc::even_out::even_out`]).
     pub blend_p_mm: Option<f64>,
     /// Per-block `G64 P` under a long-lines emitter (LinuxCNC).
     pub blend_schedule: Option<BlendSchedule>,
@@ -677,7 +677,7 @@ impl MotionWriter {
     }
 
     /// Writes consecutive moves: with [`Frame::chain_min_block_mm`], each run of
-    /// chainable moves at one feed as long G1 blocks ([`crate::chain`]), the rest move by
+    /// chainable moves at one feed as long G1 blocks ([`crate::write::chain`]), the rest move by
     /// move.
     pub(crate) fn write_moves<W: fmt::Write>(
         &mut self,
@@ -802,7 +802,7 @@ impl MotionWriter {
         Some(self.chain_extra.as_mut()?.at_dense(k))
     }
 
-    /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]);
+    /// Writes `dense` as the longest lines within `tol` ([`crate::write::chain::simplify`]);
     /// with `lift` and a [`Floor`], short blocks are then lifted against the program.
     #[allow(clippy::too_many_arguments)]
     fn write_lines<W: fmt::Write>(
@@ -940,7 +940,7 @@ impl MotionWriter {
         self.blend_pending = Some(text);
     }
 
-    /// Writes `dense` as lines and XY arcs within `tol` ([`crate::chain::fit_arcs`]); an
+    /// Writes `dense` as lines and XY arcs within `tol` ([`crate::write::chain::fit_arcs`]); an
     /// arc the writer cannot carry as `G2`/`G3` is written as lines instead.
     fn write_arc_pieces<W: fmt::Write>(
         &mut self,

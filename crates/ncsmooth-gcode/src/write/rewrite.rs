@@ -39,9 +39,8 @@ use ncsmooth::geom::{
 use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 
 mod options;
+use crate::numbers::decimals_for;
 pub use options::*;
-// compatibility path: `rewrite::{decimals_for, rounding_mm_for}`
-pub use crate::numbers::{decimals_for, rounding_mm_for};
 
 /// Why a rewrite is impossible (a bug in what produced the toolpath, never bad input).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -167,7 +167,7 @@ pub struct RunEnds {
 /// larger than the run's, so the
 /// tolerance budget is unchanged (the schedule's own shares; a programmed corner put in
 /// place of short blocks, and a point whose speed needs all of `P`, get more where the
-/// tolerance leaves it, [`crate::rewrite::CornerBlend`], checked by the model of the
+/// tolerance leaves it, [`crate::controller::linuxcnc::CornerBlend`], checked by the model of the
 /// executed path).
 ///
 /// A vertex between two blocks that carry more for their other vertices (a gentle turn
