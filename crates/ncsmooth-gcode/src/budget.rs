@@ -18,7 +18,7 @@
 //! ([`Budget::holds`]).
 
 use crate::error::ParseError;
-use crate::interp::program::{parse_bytes, ParseOptions, Program};
+use crate::interpreter::program::{parse_bytes, ParseOptions, Program};
 use ncsmooth::verify::{deviation, Deviation};
 use ncsmooth::Toolpath;
 

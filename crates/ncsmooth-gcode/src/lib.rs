@@ -5,7 +5,7 @@
 //!
 //! * [`parse_str`] / [`parse_bytes`]: a hand-written byte-level [`lexer`] (no regex, no
 //!   allocation per word), real-value [`expr`]essions with numbered and named parameters,
-//!   and a modal interpreter ([`interp`]) with LinuxCNC's semantics: O-word control flow,
+//!   and a modal interpreter ([`interpreter`]) with LinuxCNC's semantics: O-word control flow,
 //!   coordinate systems and offsets, what is known of the position, lines, arcs (all three
 //!   planes, helical, multi-turn, I/J/K or R), canned cycles, splines, and events, in
 //!   millimetres. Errors are typed ([`ParseErrorKind`]) and located (file, line, column,
@@ -53,7 +53,7 @@ pub mod controller;
 pub(crate) mod cursor;
 pub mod error;
 pub mod expr;
-pub mod interp;
+pub mod interpreter;
 mod job;
 pub mod lexer;
 pub mod numbers;
@@ -68,8 +68,8 @@ pub use stream::BlockReader;
 pub use canon::Canon;
 pub use controller::dialect::Dialect;
 pub use error::{ParseError, ParseErrorKind, Warning};
-pub use interp::frames::MachineModel;
-pub use interp::program::{
+pub use interpreter::frames::MachineModel;
+pub use interpreter::program::{
     parse_bytes, parse_str, ParseOptions, ParseStats, Program, MAX_HELD_BLOCKS,
 };
 pub use job::{

@@ -11,7 +11,7 @@
 //! Two things about a program are known only at its end, and a reader must know them
 //! before the first block: the extra axes it uses (the setpoint file's columns) and
 //! whether its main program ends with `M99` (then every move is written as programmed,
-//! see [`crate::interp`]). When the first pass finds a word that may be either (an A B C
+//! see [`crate::interpreter`]). When the first pass finds a word that may be either (an A B C
 //! U V W or E word, or `M99`), the program is interpreted once more beforehand, without
 //! keeping its blocks, to learn them; most milling programs need no such pass.
 //!
@@ -23,9 +23,9 @@
 //!   ([`BlockReader::warnings_dropped`]).
 
 use crate::error::{ParseError, ParseErrorKind};
-use crate::interp::program::{ParseOptions, ParseStats};
-use crate::interp::text::{FileText, Text};
-use crate::interp::Interp;
+use crate::interpreter::program::{ParseOptions, ParseStats};
+use crate::interpreter::text::{FileText, Text};
+use crate::interpreter::Interp;
 use ncsmooth::geom::{ParamCurve, Vec3};
 use ncsmooth::path::{Block, Units};
 use std::fs::File;

@@ -110,9 +110,9 @@ pub const MIN_ARC_CHORD_MM: f64 = 0.005;
 const MIN_ARC_CHORD_UNITS: f64 = 20.0;
 
 /// Smallest arc radius written as G2/G3 (mm): twice LinuxCNC's zero-radius limit
-/// ([`crate::interp::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
+/// ([`crate::interpreter::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
 /// arcs are flattened.
-pub const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interp::motion::RADIUS_TOLERANCE_MM;
+pub const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interpreter::motion::RADIUS_TOLERANCE_MM;
 
 fn coord(v: Vec3, i: usize) -> f64 {
     match i {

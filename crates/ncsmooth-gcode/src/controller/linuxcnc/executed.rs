@@ -56,7 +56,7 @@
 //! `G64`, on its own lines, is the program's: the model caps every `P` at the largest one
 //! the writer gives (`cap_mm`).
 
-use crate::interp::program::Program;
+use crate::interpreter::program::Program;
 use crate::source::PathMode;
 use ncsmooth::geom::{Line, ParamCurve, Segment, Vec3};
 use ncsmooth::path::MoveKind;
