@@ -17,9 +17,9 @@
 //!
 //! Where it differs from [`crate::parse_bytes`], by construction and documented:
 //! * a `G5` without `I J` long after the `G5` whose `P Q` it reuses (more than
-//!   [`G5_RETAIN_BLOCKS`] blocks later) cannot pin that earlier `G5` any more: it was
+//!   `G5_RETAIN_BLOCKS` blocks later) cannot pin that earlier `G5` any more: it was
 //!   handed out already;
-//! * at most [`MAX_KEPT_WARNINGS`] warnings are kept; the others are counted
+//! * at most `MAX_KEPT_WARNINGS` warnings are kept; the others are counted
 //!   ([`BlockReader::warnings_dropped`]).
 
 use crate::error::{ParseError, ParseErrorKind};
@@ -32,9 +32,9 @@ use std::fs::File;
 use std::path::Path;
 
 /// Blocks a `G5` stays in the reader's buffer for a later `G5` without `I J` to pin it.
-pub const G5_RETAIN_BLOCKS: usize = 4096;
+pub(crate) const G5_RETAIN_BLOCKS: usize = 4096;
 /// Warnings kept; later ones are only counted.
-pub const MAX_KEPT_WARNINGS: usize = 1000;
+pub(crate) const MAX_KEPT_WARNINGS: usize = 1000;
 
 /// A G-code file read block by block (see the module doc).
 ///
@@ -167,7 +167,7 @@ impl<'o> BlockReader<'o> {
         &self.interp.stats
     }
 
-    /// Warnings beyond [`MAX_KEPT_WARNINGS`], counted only.
+    /// Warnings beyond `MAX_KEPT_WARNINGS`, counted only.
     pub fn warnings_dropped(&self) -> usize {
         self.warnings_dropped
     }

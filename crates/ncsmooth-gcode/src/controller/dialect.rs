@@ -145,7 +145,7 @@ impl Dialect {
     /// Such a joint runs at the kink velocity and the arc below the speed its radius
     /// allows (measured in `docs/benchmarks/2026-12-02.md`). There, only arcs that
     /// meet the program's own lines (or the run's ends) at both ends stay native
-    /// ([`crate::write::motion::NATIVE_ARC_MIN_BLOCKS`]).
+    /// (`NATIVE_ARC_MIN_BLOCKS`).
     pub fn keeps_long_arcs(self) -> bool {
         !matches!(self, Dialect::LinuxCnc)
     }

@@ -77,7 +77,7 @@ pub(crate) struct MotionWriter {
 
 /// Distance (mm) within which a written block ends on the programmed point a run ends at
 /// (the writer then prints that point with its own digits).
-pub const EXACT_END_SNAP_MM: f64 = 1e-9;
+pub(crate) const EXACT_END_SNAP_MM: f64 = 1e-9;
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
@@ -85,7 +85,7 @@ const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 /// this many lines is written as `G2`/`G3` (where its plane allows and the dialect keeps
 /// long arcs, [`crate::Dialect::keeps_long_arcs`]) and ends the chain of lines; shorter
 /// arcs (the small transitions of a smoothed corner) join the chain.
-pub const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
+pub(crate) const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
 
 /// Largest spread of Z (mm) among the control points of a curve written as `G5`/`G5.2`
 /// (which carry no Z): numerical noise of a fit in a plane, below any printed decimal.
@@ -105,14 +105,14 @@ const DEFAULT_CHORD_MM: f64 = 0.001;
 /// tiny). A reader that rounds the end points (LinuxCNC's canonical output prints four
 /// decimals, grbl computes in single precision) could otherwise take such an arc for a full
 /// circle.
-pub const MIN_ARC_CHORD_MM: f64 = 0.005;
+pub(crate) const MIN_ARC_CHORD_MM: f64 = 0.005;
 /// The same minimum in units of the last written decimal.
 const MIN_ARC_CHORD_UNITS: f64 = 20.0;
 
 /// Smallest arc radius written as G2/G3 (mm): twice LinuxCNC's zero-radius limit
 /// ([`crate::interpreter::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
 /// arcs are flattened.
-pub const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interpreter::motion::RADIUS_TOLERANCE_MM;
+pub(crate) const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interpreter::motion::RADIUS_TOLERANCE_MM;
 
 fn coord(v: Vec3, i: usize) -> f64 {
     match i {

@@ -54,7 +54,7 @@ pub struct RewriteOptions {
     /// programmed path ([`crate::controller::floor::lift_short_blocks`]). Default `None`.
     pub block_floor: Option<BlockFloor>,
     /// Under the chaining emitters, an arc that would take
-    /// [`crate::write::motion::NATIVE_ARC_MIN_BLOCKS`] chords stays one `G2`/`G3`; `false`
+    /// `NATIVE_ARC_MIN_BLOCKS` chords stays one `G2`/`G3`; `false`
     /// flattens it with the rest of its run where it meets a flattened curve
     /// ([`crate::Dialect::keeps_long_arcs`]). Default true.
     pub long_arcs: bool,
@@ -90,7 +90,7 @@ pub struct BlockFloor {
 
 /// Accuracy of the programmed curves' flattening for [`BlockFloor`], as a share of its
 /// tolerance (deducted from it).
-pub const FLOOR_PROGRAM_SHARE: f64 = 0.01;
+pub(crate) const FLOOR_PROGRAM_SHARE: f64 = 0.01;
 
 impl Default for RewriteOptions {
     fn default() -> Self {
