@@ -35,7 +35,6 @@
 
 use crate::cursor::{Cursor, LexError};
 use crate::error::ParseErrorKind;
-use std::collections::HashMap;
 
 /// Deepest nesting of brackets, parameter references and signs.
 pub(crate) const MAX_DEPTH: u32 = 64;
@@ -60,13 +59,15 @@ pub trait ParamLookup {
 }
 
 /// A plain parameter store: numbered parameters and named ones in one flat scope (what
-/// the interpreter's scoped store reduces to for a single line; also used in tests).
+/// the interpreter's scoped store reduces to for a single line), for the tests.
+#[cfg(test)]
 #[derive(Clone, Debug, Default)]
-pub struct Params {
+pub(crate) struct Params {
     values: Vec<Option<f64>>,
-    named: HashMap<Box<[u8]>, f64>,
+    named: std::collections::HashMap<Box<[u8]>, f64>,
 }
 
+#[cfg(test)]
 impl Params {
     /// The value of `#index`, if it was set.
     pub fn get(&self, index: u32) -> Option<f64> {
@@ -84,16 +85,9 @@ impl Params {
     pub fn get_named(&self, name: &[u8]) -> Option<f64> {
         self.named.get(name).copied()
     }
-    /// Sets `#<name>` (upper case).
-    pub fn set_named(&mut self, name: &[u8], value: f64) {
-        self.named.insert(name.into(), value);
-    }
-    /// Removes every named parameter.
-    pub fn clear_named(&mut self) {
-        self.named.clear();
-    }
 }
 
+#[cfg(test)]
 impl ParamLookup for Params {
     fn numbered(&self, index: u32) -> Option<f64> {
         self.get(index)

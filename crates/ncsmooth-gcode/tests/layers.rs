@@ -6,9 +6,9 @@
 //! top. Checked on the source text: every `crate::X` path outside comments in module `M`
 //! must name a module of a lower rank than `M` (a module's own submodules excepted; a name
 //! the crate root re-exports counts as the module it comes from, another crate's is
-//! allowed, and the compatibility modules and anything else defined in `lib.rs` are
-//! refused: use the module's own path). `lib.rs` (the public facade and its compatibility
-//! paths) is not checked, and neither is test code (`tests.rs`, `#[cfg(test)]` items).
+//! allowed, and a module or anything else defined inline in `lib.rs` is refused: use
+//! the module's own path). `lib.rs` (the public facade: private modules, root
+//! re-exports) is not checked, and neither is test code (`tests.rs`, `#[cfg(test)]` items).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

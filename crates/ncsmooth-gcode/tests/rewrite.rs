@@ -15,9 +15,7 @@
 
 use ncsmooth::geom::{Flatten, Line, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Block, MoveKind, Toolpath, EXTRA_RATE_VARIANCE};
-use ncsmooth_gcode::controller::linuxcnc::Blend;
-use ncsmooth_gcode::write::rewrite::Emit;
-use ncsmooth_gcode::{parse_str, rewrite, ParseOptions, Program, RewriteOptions};
+use ncsmooth_gcode::{parse_str, rewrite, Blend, Emit, ParseOptions, Program, RewriteOptions};
 use proptest::prelude::*;
 
 #[derive(Clone, Debug)]

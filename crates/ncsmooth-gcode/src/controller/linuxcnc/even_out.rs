@@ -61,14 +61,14 @@ pub struct EvenOut<S, R> {
     pub dense_acc_mm: f64,
 }
 
-/// Moves the written points [`simplify`](crate::write::chain::simplify) chose along the dense polyline so that the
+/// Moves the written points `write::chain::simplify` chose along the dense polyline so that the
 /// smallest of `how.score` over the junctions each one touches grows, keeping every
-/// block within `tol_mm` (the fit test of [`simplify`](crate::write::chain::simplify), rounding included): for a
+/// block within `tol_mm` (the fit test of `simplify`, rounding included): for a
 /// controller that blends its junctions by the length of the blocks (LinuxCNC takes at
 /// most half of each line for a blend arc), the greedy cut's long block beside a short
 /// one leaves a tight blend where an even cut gives the curve's own radius.
 ///
-/// `idx` is what [`simplify`](crate::write::chain::simplify) returned for `pts`, the written points after `start`.
+/// `idx` is what `simplify` returned for `pts`, the written points after `start`.
 /// Hard points and the ends stay, no block is made shorter than `min_block_mm` unless it
 /// already was, and a point moved between dense points lies inside the curve by no more
 /// than `how.room` allows there. Each point is tried at `EVEN_OUT_STEPS` places of

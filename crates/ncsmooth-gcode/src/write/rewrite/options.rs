@@ -122,7 +122,7 @@ pub enum Emit {
     Native,
     /// Each run of feed moves at one feed (lines, arcs and curves alike) as the longest
     /// `G1` blocks whose chord, rounding included, stays within the chord tolerance
-    /// ([`crate::write::chain`]); `E` is carried along the blocks ([`crate::write::chain_extra`]), moves
+    /// (`write::chain`); `E` is carried along the blocks (`write::chain_extra`), moves
     /// with other extra axes (A..W) are written move by move.
     Lines {
         /// A last block of a run shorter than `min_block_mm`, or than the run's feed
@@ -134,7 +134,7 @@ pub enum Emit {
     },
     /// As [`Emit::Lines`], with arcs: from each written point the longer of the longest
     /// line and the longest XY arc (`G2`/`G3`, helical when Z changes) within the chord
-    /// of every point and every chord it spans ([`crate::write::chain::fit_arcs`]).
+    /// of every point and every chord it spans (`write::chain::fit_arcs`).
     Arcs,
     /// As [`Emit::Lines`], with every cubic Bézier in an XY plane (the B-spline method's
     /// curves) written exactly as one `G5` (LinuxCNC, grblHAL, Marlin).
