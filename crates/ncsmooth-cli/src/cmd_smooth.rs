@@ -20,7 +20,7 @@ const FILTER_PROGRESS_PARSED: u32 = 20;
 /// `FILTER_PROGRESS` once the written program is verified, before it goes out.
 const FILTER_PROGRESS_VERIFIED: u32 = 95;
 /// Largest `--decimals`.
-const MAX_DECIMALS: usize = ncsmooth_gcode::writer::MAX_DECIMALS;
+const MAX_DECIMALS: usize = ncsmooth_gcode::MAX_DECIMALS;
 
 /// Corner treatment names of `--method trig`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

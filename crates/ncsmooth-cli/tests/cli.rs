@@ -1389,7 +1389,7 @@ fn smooth_writes_for_its_dialect_and_emitter() {
     let (_, r) = smooth(&["--dialect", "grbl"]);
     let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
     assert!(
-        min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
+        min >= ncsmooth_gcode::controller::dialect::STEPPER_MIN_BLOCK_MM,
         "{}",
         r["blocks"]
     );
@@ -1655,7 +1655,7 @@ fn smooth_for_grbl_checked(d: &Path, f: &Path, method: &str) -> String {
     let (text, r) = smooth_checked(d, f, method, "grbl");
     let min = r["blocks"]["min_block_mm"].as_f64().unwrap();
     assert!(
-        min >= ncsmooth_gcode::dialect::STEPPER_MIN_BLOCK_MM,
+        min >= ncsmooth_gcode::controller::dialect::STEPPER_MIN_BLOCK_MM,
         "{method}: {}",
         r["blocks"]
     );

@@ -4,12 +4,12 @@
 //! between the smoothed curve and that path is paid from it:
 //!
 //! * `chord`: flattening curves G-code cannot carry into G1 lines (and the long-block
-//!   emitters' merging, [`crate::chain`]);
+//!   emitters' merging, [`crate::write::chain`]);
 //! * `rounding`: printing coordinates with `decimals` digits moves a point by up to half
-//!   a unit of the last digit per axis, `0.5 10^-d sqrt(3)` mm ([`crate::writer::rounding_mm`];
+//!   a unit of the last digit per axis, `0.5 10^-d sqrt(3)` mm ([`crate::numbers::rounding_mm`];
 //!   an inch program is written in inches, so its rounding is 25.4 times larger);
 //! * `blend`: a controller's own blending between blocks when it is told a bound
-//!   (LinuxCNC's `G64 P Q` adds up to `P + Q`, [`crate::rewrite::Blend`]).
+//!   (LinuxCNC's `G64 P Q` adds up to `P + Q`, [`crate::controller::linuxcnc::Blend`]).
 //!
 //! The curves are therefore built to `tol - chord - rounding - blend`
 //! ([`Budget::curve_tol_mm`]). What is measured in the end is the written text itself:
@@ -18,7 +18,7 @@
 //! ([`Budget::holds`]).
 
 use crate::error::ParseError;
-use crate::interp::program::{parse_bytes, ParseOptions, Program};
+use crate::interpreter::program::{parse_bytes, ParseOptions, Program};
 use ncsmooth::verify::{deviation, Deviation};
 use ncsmooth::Toolpath;
 

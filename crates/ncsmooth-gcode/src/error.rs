@@ -192,7 +192,7 @@ pub enum ParseErrorKind {
         what: String,
     },
     /// An axis position beyond what the numerics carry to the micrometre
-    /// ([`crate::interp::motion::MAX_COORDINATE`]).
+    /// (`MAX_COORDINATE`).
     #[error("{letter} reaches {value:e}, beyond the range ncsmooth computes in (|position| at most {max:e} mm, or degrees for A, B and C)")]
     CoordinateRange {
         /// The axis letter.

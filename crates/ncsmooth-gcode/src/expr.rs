@@ -19,7 +19,7 @@
 //!
 //! Some parameters hold machine state that ncsmooth cannot know: the stored work offsets
 //! (`#5221`..), home positions (`#5161`..), tool table entries, the position after a
-//! `G53` move. Their lookup returns [`UNKNOWN`] (a NaN), which propagates through every
+//! `G53` move. Their lookup returns `UNKNOWN` (a NaN), which propagates through every
 //! operator and function instead of being an error. The interpreter decides what an
 //! unknown value means where it is used: an axis word makes that axis's position unknown,
 //! a condition or any other word is an error naming the parameter.
@@ -30,29 +30,28 @@
 //! error unless the lookup supplies a value (LinuxCNC reads its persistent parameter
 //! file, which ncsmooth cannot know; a known-machine model supplies zeros).
 //!
-//! Nesting (brackets, `#` chains, signs) is limited to [`MAX_DEPTH`] so that hostile input
+//! Nesting (brackets, `#` chains, signs) is limited to `MAX_DEPTH` so that hostile input
 //! cannot overflow the stack.
 
 use crate::cursor::{Cursor, LexError};
 use crate::error::ParseErrorKind;
-use std::collections::HashMap;
 
 /// Deepest nesting of brackets, parameter references and signs.
-pub const MAX_DEPTH: u32 = 64;
+pub(crate) const MAX_DEPTH: u32 = 64;
 
 /// Highest numbered parameter (LinuxCNC's `RS274NGC_MAX_PARAMETERS - 1`).
 pub const MAX_PARAM: u32 = 5602;
 
 /// Longest parameter name (LinuxCNC's `LINELEN`-bounded names are far shorter in practice).
-pub const MAX_NAME_LEN: usize = 255;
+pub(crate) const MAX_NAME_LEN: usize = 255;
 
 /// The value of a parameter that holds machine state ncsmooth cannot know. It is a NaN:
 /// arithmetic on it stays unknown.
-pub const UNKNOWN: f64 = f64::NAN;
+pub(crate) const UNKNOWN: f64 = f64::NAN;
 
 /// Where parameter values come from while a line is evaluated.
 pub trait ParamLookup {
-    /// `#index`: `None` when never set, [`UNKNOWN`] when it holds unknown machine state.
+    /// `#index`: `None` when never set, `UNKNOWN` when it holds unknown machine state.
     fn numbered(&self, index: u32) -> Option<f64>;
     /// `#<name>` (`name` upper case, without brackets or white space): `None` when not
     /// defined.
@@ -60,13 +59,15 @@ pub trait ParamLookup {
 }
 
 /// A plain parameter store: numbered parameters and named ones in one flat scope (what
-/// the interpreter's scoped store reduces to for a single line; also used in tests).
+/// the interpreter's scoped store reduces to for a single line), for the tests.
+#[cfg(test)]
 #[derive(Clone, Debug, Default)]
-pub struct Params {
+pub(crate) struct Params {
     values: Vec<Option<f64>>,
-    named: HashMap<Box<[u8]>, f64>,
+    named: std::collections::HashMap<Box<[u8]>, f64>,
 }
 
+#[cfg(test)]
 impl Params {
     /// The value of `#index`, if it was set.
     pub fn get(&self, index: u32) -> Option<f64> {
@@ -84,16 +85,9 @@ impl Params {
     pub fn get_named(&self, name: &[u8]) -> Option<f64> {
         self.named.get(name).copied()
     }
-    /// Sets `#<name>` (upper case).
-    pub fn set_named(&mut self, name: &[u8], value: f64) {
-        self.named.insert(name.into(), value);
-    }
-    /// Removes every named parameter.
-    pub fn clear_named(&mut self) {
-        self.named.clear();
-    }
 }
 
+#[cfg(test)]
 impl ParamLookup for Params {
     fn numbered(&self, index: u32) -> Option<f64> {
         self.get(index)

@@ -17,7 +17,7 @@
 //!    comments). `;` comments are recorded (`LineBuf::semicolon`) and never interpreted.
 //! 2. `read_block` splits the compacted bytes into words (a letter and a real value) and
 //!    `#n=value` / `#<name>=value` parameter assignments. O-word statements (control flow)
-//!    are read by `crate::interp::oword`, not here. Values are numbers, `#n` references, `[ ]`
+//!    are read by `crate::interpreter::oword`, not here. Values are numbers, `#n` references, `[ ]`
 //!    expressions or unary functions ([`crate::expr`]). Numbers are `digits[.digits]` or
 //!    `.digits` (no exponent, as NGC) and are converted with `str::parse::<f64>` on the
 //!    digits, so `X1234.56789` is exactly the nearest `f64`.

@@ -3,19 +3,28 @@
 //! RS274/NGC G-code (as LinuxCNC and grbl accept it) to and from the ncsmooth path
 //! model ([`ncsmooth::Toolpath`]).
 //!
-//! * [`parse_str`] / [`parse_bytes`]: a hand-written byte-level [`lexer`] (no regex, no
-//!   allocation per word), real-value [`expr`]essions with numbered and named parameters,
-//!   and a modal interpreter ([`interp`]) with LinuxCNC's semantics: O-word control flow,
-//!   coordinate systems and offsets, what is known of the position, lines, arcs (all three
-//!   planes, helical, multi-turn, I/J/K or R), canned cycles, splines, and events, in
-//!   millimetres. Errors are typed ([`ParseErrorKind`]) and located (file, line, column,
-//!   byte range); no input, however malformed, makes the parser panic.
-//! * [`rewrite()`]: a smoothed toolpath written back into the program's own text: every
-//!   line that is not smoothed motion is copied verbatim ([`mod@rewrite`]).
-//! * [`write()`]: a toolpath without source to G-code ([`writer`]), flattening what
-//!   G-code cannot carry natively.
+//! | Reading | |
+//! |---|---|
+//! | [`parse_str`], [`parse_bytes`] | a whole program to a [`Program`]: its [`Toolpath`](ncsmooth::Toolpath), [`ParseStats`], [`SourceMap`] and, when asked, its [`Canon`] calls, read as LinuxCNC's modal interpreter reads it (O-word control flow, coordinate systems and offsets, what is known of the position, lines, arcs in all three planes, canned cycles, splines, events), in millimetres |
+//! | [`ParseOptions`], [`MachineModel`] | how to read: the machine's start state, units assumed, limits |
+//! | [`BlockReader`] | a file read block by block, for files too large to hold |
+//! | [`ParseError`], [`ParseErrorKind`], [`Warning`] | typed, located errors (file, line, column, byte range); no input, however malformed, makes the parser panic |
 //!
-//! See each module for the rules and the decisions taken where the standard leaves room.
+//! | Writing | |
+//! |---|---|
+//! | [`rewrite()`], [`RewriteOptions`] | a smoothed toolpath written back into the program's own text: every line that is not smoothed motion is copied verbatim |
+//! | [`write()`], [`write_to`], [`WriteOptions`] | a toolpath without source to G-code, flattening what G-code cannot carry natively |
+//! | [`Dialect`], [`controller`] | what each controller accepts (the capability table), block floors, LinuxCNC's model of what it executes |
+//! | [`Budget`], [`read_back`] | the tolerance shared between curves, chords, rounding and blending, and its check on the text as written |
+//!
+//! | Jobs | |
+//! |---|---|
+//! | [`SmoothJob`], [`Smoothed`], [`SmoothRunReport`] | the verified pipeline from a program's text to the G-code a controller runs, and its report |
+//! | [`PlanJob`], [`PlanInput`], [`Planned`], [`PlanRunReport`] | smoothing and planning a program (a file streamed, or a path held whole) into setpoints, the limits checked on them, and its report |
+//! | [`InspectReport`] | what a program holds |
+//!
+//! The rules, and the decisions taken where the standard leaves room, are documented on
+//! each item and in `docs/gcode.md`.
 //!
 //! ## Read a program, smooth it, write it
 //!
@@ -47,93 +56,51 @@
 //! ```
 #![forbid(unsafe_code)]
 
-pub mod budget;
-pub mod canon;
+mod budget;
+mod canon;
 pub mod controller;
 pub(crate) mod cursor;
-pub mod error;
-pub mod expr;
-pub mod interp;
+mod error;
+mod expr;
+mod interpreter;
 mod job;
-pub mod lexer;
-pub mod numbers;
+mod lexer;
+mod numbers;
 pub(crate) mod polyline;
-pub mod source;
-pub mod stream;
-pub mod write;
+mod source;
+mod stream;
+mod write;
 
-pub use budget::{read_back, Budget};
-pub use stream::BlockReader;
-
-pub use canon::Canon;
-pub use controller::dialect::Dialect;
-pub use error::{ParseError, ParseErrorKind, Warning};
-pub use interp::frames::MachineModel;
-pub use interp::program::{
+// Reading: a whole program, or block by block.
+pub use interpreter::frames::MachineModel;
+pub use interpreter::program::{
     parse_bytes, parse_str, ParseOptions, ParseStats, Program, MAX_HELD_BLOCKS,
 };
+pub use stream::BlockReader;
+
+// What was read: errors, warnings, LinuxCNC's canonical calls, the units.
+pub use canon::Canon;
+pub use error::{ParseError, ParseErrorKind, Warning};
+pub use ncsmooth::path::Units;
+
+// The source map: what each line of the program is, for writing it back in place.
+pub use source::{flags, LineInfo, PathMode, Plane, SourceMap, WriteState};
+
+// Writing: back into the program's own text, or a toolpath without source.
+pub use controller::dialect::Dialect;
+pub use controller::linuxcnc::Blend;
+pub use write::rewrite::{rewrite, BlockFloor, Emit, RewriteError, RewriteOptions};
+pub use write::{write, write_to, WriteOptions};
+
+// The printed numbers.
+pub use numbers::{rounding_mm, MAX_DECIMALS};
+
+// The tolerance budget, and its check on the text as written.
+pub use budget::{read_back, read_back_with, read_written, read_written_with, Budget};
+
+// Jobs: the verified pipeline and its reports.
 pub use job::{
     check_period, write_path_samples, BlendReport, BlockReport, EmitStyle, InspectReport, JobError,
     MovesByCode, PlanInput, PlanJob, PlanNote, PlanRunReport, Planned, SmoothJob, SmoothRunReport,
     Smoothed, Timings, MAX_PERIOD_S, MIN_PERIOD_S,
 };
-pub use ncsmooth::path::Units;
-pub use source::{Plane, SourceMap};
-pub use write::rewrite::{rewrite, RewriteOptions};
-pub use write::{write, write_to, WriteOptions};
-
-/// The writer's numbers, plain writer, motion constants and LinuxCNC blend schedule, at
-/// their old path ([`numbers`], [`mod@write`], [`controller::linuxcnc::blend`]).
-pub mod writer {
-    // compatibility path
-    pub use crate::controller::linuxcnc::blend::{
-        BlendSchedule, RunEnd, RunEnds, BLEND_SCHEDULE_MIN_SHARE, BLEND_SCHEDULE_SPEED_PASSES,
-        BLEND_SCHEDULE_STEPS_PER_HALVING, LINUXCNC_BLEND_GAP_CYCLES, LINUXCNC_NORMAL_ACC_SHARE,
-        LINUXCNC_TANGENTIAL_ACC_SHARE, LINUXCNC_TANGENT_KINK_RATIO, ROOM_SAMPLES, SPLIT_CANDIDATES,
-        SPLIT_KINK_RATIO, SPLIT_MIN_GAIN, SPLIT_ROOM,
-    };
-    pub use crate::numbers::{
-        push_fixed, rounding_mm, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS,
-        PRINT_DECIMALS_MAX,
-    };
-    pub use crate::write::motion::{
-        EXACT_END_SNAP_MM, MIN_ARC_CHORD_MM, MIN_ARC_RADIUS_MM, NATIVE_ARC_MIN_BLOCKS,
-    };
-    pub use crate::write::{write, write_to, WriteOptions};
-}
-
-/// A program rewritten in its own text, at its old path ([`write::rewrite`]).
-pub mod rewrite {
-    // compatibility path
-    pub use crate::controller::linuxcnc::{Blend, CornerBlend};
-    pub use crate::write::rewrite::*;
-}
-
-/// Chains of long blocks, evening out and lifting, at their old path
-/// ([`write::chain`], [`controller::linuxcnc::even_out`], [`controller::floor`]).
-pub mod chain {
-    // compatibility path
-    pub use crate::controller::floor::{lift_short_blocks, Program};
-    pub use crate::controller::linuxcnc::even_out::{
-        even_out, EvenOut, EVEN_OUT_STEPS, EVEN_OUT_SWEEPS,
-    };
-    pub use crate::write::chain::*;
-}
-
-/// Extra axes along a chain, at their old path ([`write::chain_extra`]).
-pub mod chain_extra {
-    // compatibility path
-    pub use crate::write::chain_extra::*;
-}
-
-/// The capability table, at its old path ([`controller::dialect`]).
-pub mod dialect {
-    // compatibility path
-    pub use crate::controller::dialect::*;
-}
-
-/// LinuxCNC's executed path, at its old path ([`controller::linuxcnc::executed`]).
-pub mod executed {
-    // compatibility path
-    pub use crate::controller::linuxcnc::executed::*;
-}

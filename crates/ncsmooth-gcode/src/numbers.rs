@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 /// Digits `E` gets beyond the coordinates' (5 at the default 4, as slicers write it): a
 /// block of a smoothed print extrudes a few thousandths of a millimetre of filament, and
 /// rounding that to 4 decimals changed each block's flow by up to a few per cent.
-pub const E_EXTRA_DECIMALS: usize = 1;
+pub(crate) const E_EXTRA_DECIMALS: usize = 1;
 
 /// Most digits after the point the writer prints; more are clamped to this. 1e-12 mm is
 /// below what an f64 coordinate of a few metres resolves.
@@ -17,7 +17,7 @@ pub const MAX_DECIMALS: usize = 12;
 
 /// Most digits [`push_fixed`] prints: coordinates at [`MAX_DECIMALS`] plus the extra
 /// digits of arc centres.
-pub const PRINT_DECIMALS_MAX: usize = MAX_DECIMALS + CENTRE_EXTRA_DECIMALS;
+pub(crate) const PRINT_DECIMALS_MAX: usize = MAX_DECIMALS + CENTRE_EXTRA_DECIMALS;
 
 /// Largest distance (mm) a point moves when each coordinate is rounded to `decimals`
 /// digits (half a unit of the last digit on each of the three axes).
@@ -30,7 +30,7 @@ pub fn rounding_mm(decimals: usize) -> f64 {
 /// original by about the end-point rounding only (with the same digits as the
 /// coordinates, the centre rounding adds up to the same amount again, and arc midpoints
 /// of a 6-decimal round trip could move by up to 1.4e-6 mm).
-pub const CENTRE_EXTRA_DECIMALS: usize = 2;
+pub(crate) const CENTRE_EXTRA_DECIMALS: usize = 2;
 
 /// Appends `v` with at most `decimals` digits after the point, without trailing zeros,
 /// never `-0` and never in exponent notation.
@@ -41,7 +41,7 @@ pub const CENTRE_EXTRA_DECIMALS: usize = 2;
 /// inserted. The scaling itself rounds, so a value within one ulp of a tie may round
 /// the other way than exact decimal rounding would: the printed value is still within
 /// half a unit of the last digit (plus an ulp) of `v`. Other values use `{:.N}`.
-/// `decimals` is clamped to [`PRINT_DECIMALS_MAX`].
+/// `decimals` is clamped to `PRINT_DECIMALS_MAX`.
 pub fn push_fixed(s: &mut String, v: f64, decimals: usize) {
     let decimals = decimals.min(PRINT_DECIMALS_MAX);
     if decimals < POW10_U64.len() && v.is_finite() {

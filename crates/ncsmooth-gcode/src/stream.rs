@@ -11,30 +11,30 @@
 //! Two things about a program are known only at its end, and a reader must know them
 //! before the first block: the extra axes it uses (the setpoint file's columns) and
 //! whether its main program ends with `M99` (then every move is written as programmed,
-//! see [`crate::interp`]). When the first pass finds a word that may be either (an A B C
+//! see [`crate::interpreter`]). When the first pass finds a word that may be either (an A B C
 //! U V W or E word, or `M99`), the program is interpreted once more beforehand, without
 //! keeping its blocks, to learn them; most milling programs need no such pass.
 //!
 //! Where it differs from [`crate::parse_bytes`], by construction and documented:
 //! * a `G5` without `I J` long after the `G5` whose `P Q` it reuses (more than
-//!   [`G5_RETAIN_BLOCKS`] blocks later) cannot pin that earlier `G5` any more: it was
+//!   `G5_RETAIN_BLOCKS` blocks later) cannot pin that earlier `G5` any more: it was
 //!   handed out already;
-//! * at most [`MAX_KEPT_WARNINGS`] warnings are kept; the others are counted
+//! * at most `MAX_KEPT_WARNINGS` warnings are kept; the others are counted
 //!   ([`BlockReader::warnings_dropped`]).
 
 use crate::error::{ParseError, ParseErrorKind};
-use crate::interp::program::{ParseOptions, ParseStats};
-use crate::interp::text::{FileText, Text};
-use crate::interp::Interp;
+use crate::interpreter::program::{ParseOptions, ParseStats};
+use crate::interpreter::text::{FileText, Text};
+use crate::interpreter::Interp;
 use ncsmooth::geom::{ParamCurve, Vec3};
 use ncsmooth::path::{Block, Units};
 use std::fs::File;
 use std::path::Path;
 
 /// Blocks a `G5` stays in the reader's buffer for a later `G5` without `I J` to pin it.
-pub const G5_RETAIN_BLOCKS: usize = 4096;
+pub(crate) const G5_RETAIN_BLOCKS: usize = 4096;
 /// Warnings kept; later ones are only counted.
-pub const MAX_KEPT_WARNINGS: usize = 1000;
+pub(crate) const MAX_KEPT_WARNINGS: usize = 1000;
 
 /// A G-code file read block by block (see the module doc).
 ///
@@ -167,7 +167,7 @@ impl<'o> BlockReader<'o> {
         &self.interp.stats
     }
 
-    /// Warnings beyond [`MAX_KEPT_WARNINGS`], counted only.
+    /// Warnings beyond `MAX_KEPT_WARNINGS`, counted only.
     pub fn warnings_dropped(&self) -> usize {
         self.warnings_dropped
     }

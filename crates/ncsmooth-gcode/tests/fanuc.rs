@@ -6,7 +6,7 @@
 
 use ncsmooth::geom::ParamCurve;
 use ncsmooth::path::{EventKind, Move};
-use ncsmooth_gcode::source::flags;
+use ncsmooth_gcode::flags;
 use ncsmooth_gcode::{parse_str, MachineModel, ParseError, ParseErrorKind, ParseOptions, Program};
 
 fn known() -> ParseOptions {
@@ -296,7 +296,7 @@ fn smoothing_a_fanuc_program_keeps_its_subprograms() {
     // The subprogram moves, and the main-program move before the call.
     assert_eq!(pinned(&p.toolpath).len(), 3 * (1 + 40) + 1);
     for method in [Method::Bspline, Method::Arc, Method::Nurbs, Method::Trig] {
-        let rounding = ncsmooth_gcode::writer::rounding_mm(DECIMALS);
+        let rounding = ncsmooth_gcode::rounding_mm(DECIMALS);
         let opts = SmoothOptions::default()
             .with_method(method)
             .with_tol_mm(TOL_MM - CHORD_MM - rounding);

@@ -1,14 +1,14 @@
 //! The G-code crate's modules import downward only: the numbers and the data of a line
 //! (`numbers`, `error`, `canon`, `source`, `polyline`) below the reader (`cursor` ->
-//! `expr` -> `lexer` -> `interp` -> `stream`), the controllers (`controller`: the
+//! `expr` -> `lexer` -> `interpreter` -> `stream`), the controllers (`controller`: the
 //! capability table, block floors, LinuxCNC's model) above what they read, the writers
 //! (`write`) above the controllers they write for, and the read-back budget (`budget`) on
 //! top. Checked on the source text: every `crate::X` path outside comments in module `M`
 //! must name a module of a lower rank than `M` (a module's own submodules excepted; a name
 //! the crate root re-exports counts as the module it comes from, another crate's is
-//! allowed, and the compatibility modules and anything else defined in `lib.rs` are
-//! refused: use the module's own path). `lib.rs` (the public facade and its compatibility
-//! paths) is not checked, and neither is test code (`tests.rs`, `#[cfg(test)]` items).
+//! allowed, and a module or anything else defined inline in `lib.rs` is refused: use
+//! the module's own path). `lib.rs` (the public facade: private modules, root
+//! re-exports) is not checked, and neither is test code (`tests.rs`, `#[cfg(test)]` items).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -23,7 +23,7 @@ const RANKS: [(&str, u32); 14] = [
     ("cursor", 1),
     ("expr", 2),
     ("lexer", 3),
-    ("interp", 4),
+    ("interpreter", 4),
     ("stream", 5),
     ("controller", 5),
     ("write", 6),
@@ -286,7 +286,7 @@ fn an_upward_import_is_seen() {
     );
     let roots = root_reexports(
         "pub use controller::dialect::Dialect;\n\
-         pub use interp::program::{\n    parse_str, Program,\n};\n\
+         pub use interpreter::program::{\n    parse_str, Program,\n};\n\
          pub use ncsmooth::path::Units;\n\
          pub use write::rewrite::{rewrite, RewriteOptions};\n\
          pub mod numbers;\n\
@@ -305,10 +305,10 @@ fn an_upward_import_is_seen() {
     );
     // A file directly in src/: `super::` is the crate root.
     assert_eq!(
-        violations("lexer", "use super::interp::Interp;\n", true, &roots),
-        vec![(1, "interp".to_string())]
+        violations("lexer", "use super::interpreter::Interp;\n", true, &roots),
+        vec![(1, "interpreter".to_string())]
     );
-    assert!(violations("lexer", "use super::interp::Interp;\n", false, &roots).is_empty());
+    assert!(violations("lexer", "use super::interpreter::Interp;\n", false, &roots).is_empty());
     // Root names count as their module; another crate's are allowed; a compatibility
     // module or a name the root does not re-export is refused.
     let text = "use crate::{Dialect, Units};\nuse crate::Program;\nuse crate::writer::push_fixed;\nuse crate::Nowhere;\n";
@@ -329,7 +329,7 @@ fn an_upward_import_is_seen() {
         ]
     );
     assert_eq!(
-        violations("interp", "use crate::Program;\n", false, &roots),
+        violations("interpreter", "use crate::Program;\n", false, &roots),
         vec![]
     );
 }

@@ -15,8 +15,7 @@
 
 use ncsmooth::geom::{Flatten, Line, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Block, MoveKind, Toolpath, EXTRA_RATE_VARIANCE};
-use ncsmooth_gcode::rewrite::{Blend, Emit};
-use ncsmooth_gcode::{parse_str, rewrite, ParseOptions, Program, RewriteOptions};
+use ncsmooth_gcode::{parse_str, rewrite, Blend, Emit, ParseOptions, Program, RewriteOptions};
 use proptest::prelude::*;
 
 #[derive(Clone, Debug)]

@@ -4,7 +4,7 @@
 //! the program.
 
 use ncsmooth::path::Block;
-use ncsmooth_gcode::source::flags;
+use ncsmooth_gcode::flags;
 use ncsmooth_gcode::{parse_bytes, BlockReader, MachineModel, ParseError, ParseOptions};
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 //!
 //! | dialect | blending the writer bounds | shortest block it aims for | arcs | G5 | longest line |
 //! |---|---|---|---|---|---|
-//! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::rewrite::Blend`]); with the machine's acceleration, a smaller `P` where the speed allows ([`crate::writer::BlendSchedule`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | yes | 256 |
+//! | `linuxcnc` | `G64 P Q` before every replaced run ([`crate::controller::linuxcnc::Blend`]); with the machine's acceleration, a smaller `P` where the speed allows ([`crate::controller::linuxcnc::blend::BlendSchedule`]) | what feed covers in 1.02 servo periods (LinuxCNC caps a block's speed at its length / 1.02 T) | G17, G18, G19 | yes | 256 |
 //! | `grbl` | none (grbl keeps the path, junction deviation only slows) | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | no | 79 stored |
 //! | `grblhal` | none | [`STEPPER_MIN_BLOCK_MM`] | G17, G18, G19 | yes | 256 |
 //! | `marlin` | none | [`STEPPER_MIN_BLOCK_MM`] | G17 only | yes | 95 stored |
@@ -106,7 +106,7 @@ impl Dialect {
     /// Shortest block (mm) the controller should never be given: a stepper controller's
     /// few steps ([`STEPPER_MIN_BLOCK_MM`]), below which a block's direction is its
     /// rounding. Shorter blocks are lifted where the program's tolerance allows
-    /// ([`crate::rewrite::BlockFloor`]). `None` for LinuxCNC (its short blocks only run
+    /// ([`crate::write::rewrite::BlockFloor`]). `None` for LinuxCNC (its short blocks only run
     /// slower, see [`Dialect::min_block_mm`]) and `generic`.
     pub fn block_floor_mm(self) -> Option<f64> {
         match self {
@@ -145,7 +145,7 @@ impl Dialect {
     /// Such a joint runs at the kink velocity and the arc below the speed its radius
     /// allows (measured in `docs/benchmarks/2026-12-02.md`). There, only arcs that
     /// meet the program's own lines (or the run's ends) at both ends stay native
-    /// ([`crate::writer::NATIVE_ARC_MIN_BLOCKS`]).
+    /// (`NATIVE_ARC_MIN_BLOCKS`).
     pub fn keeps_long_arcs(self) -> bool {
         !matches!(self, Dialect::LinuxCnc)
     }

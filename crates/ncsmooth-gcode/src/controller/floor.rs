@@ -9,7 +9,7 @@ use ncsmooth::geom::Vec3;
 
 /// The programmed path of the moves being written and the tolerance left for the written
 /// blocks against it: blocks shorter than `min_block_mm` are lifted where the program
-/// allows ([`crate::chain::lift_short_blocks`]).
+/// allows ([`crate::controller::floor::lift_short_blocks`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct Floor {
     /// The programmed path as a polyline (mm).
@@ -26,9 +26,9 @@ pub(crate) struct Floor {
 }
 
 impl Floor {
-    /// The programmed path as the block floor's [`crate::chain::Program`].
-    pub(crate) fn program_ref(&self) -> Program<'_> {
-        Program {
+    /// The programmed path as the block floor's [`ProgrammedPath`].
+    pub(crate) fn program_ref(&self) -> ProgrammedPath<'_> {
+        ProgrammedPath {
             points: &self.program,
             tol_mm: self.tol_mm,
         }
@@ -76,14 +76,14 @@ const SAMPLES_PER_TOL: f64 = 16.0;
 /// polyline (curves flattened, with their flattening accuracy deducted from `tol_mm`) and
 /// the two-sided tolerance left for the written blocks.
 #[derive(Clone, Copy, Debug)]
-pub struct Program<'a> {
+pub struct ProgrammedPath<'a> {
     /// The programmed path as a polyline (mm).
     pub points: &'a [Vec3],
     /// Largest distance (mm), both ways, between the written blocks and `points`.
     pub tol_mm: f64,
 }
 
-impl Program<'_> {
+impl ProgrammedPath<'_> {
     /// Distance from `p` to the programmed segments `segs` (indices of their starts).
     fn dist(&self, p: Vec3, segs: &[usize]) -> f64 {
         segs.iter()
@@ -274,7 +274,7 @@ fn replacement_fits(
     lo: usize,
     hi: usize,
     new: Option<Vec3>,
-    program: &Program,
+    program: &ProgrammedPath,
     grid: &SegGrid,
     scratch: &mut Vec<usize>,
 ) -> bool {
@@ -322,7 +322,7 @@ pub fn lift_short_blocks(
     start: Vec3,
     pts: &mut Vec<Vec3>,
     min_block_mm: f64,
-    program: &Program,
+    program: &ProgrammedPath,
     round: impl Fn(Vec3) -> Vec3,
 ) -> usize {
     let grid = std::cell::OnceCell::new();
@@ -348,9 +348,9 @@ pub(crate) struct Lift {
     pub snapped: Vec<Vec3>,
 }
 
-impl Program<'_> {
-    /// The grid over the programmed segments, for [`Program::max_dist_near`] and
-    /// [`Program::vertex_gap`].
+impl ProgrammedPath<'_> {
+    /// The grid over the programmed segments, for [`ProgrammedPath::max_dist_near`] and
+    /// [`ProgrammedPath::vertex_gap`].
     pub(crate) fn grid(&self) -> SegGrid {
         SegGrid::new(self.points, self.tol_mm)
     }
@@ -408,7 +408,7 @@ pub(crate) fn lift_short_blocks_in(
     start: Vec3,
     pts: &mut Vec<Vec3>,
     min_block_mm: f64,
-    program: &Program,
+    program: &ProgrammedPath,
     grid: &std::cell::OnceCell<SegGrid>,
     round: impl Fn(Vec3) -> Vec3,
     how: &mut Lift,
@@ -509,7 +509,7 @@ mod tests {
     #[test]
     fn short_blocks_of_a_corner_are_lifted_within_the_program_tolerance() {
         let (program, start, mut pts) = corner_case();
-        let prog = Program {
+        let prog = ProgrammedPath {
             points: &program,
             tol_mm: 0.01,
         };
@@ -526,7 +526,7 @@ mod tests {
     #[test]
     fn for_linuxcnc_short_blocks_become_the_programmed_corner_only() {
         let (program, start, pts) = corner_case();
-        let prog = Program {
+        let prog = ProgrammedPath {
             points: &program,
             tol_mm: 0.01,
         };
@@ -584,7 +584,7 @@ mod tests {
         // replacement that would lengthen its blocks.
         let (program, start, mut pts) = corner_case();
         let before = pts.clone();
-        let prog = Program {
+        let prog = ProgrammedPath {
             points: &program,
             tol_mm: 0.001,
         };
@@ -619,7 +619,7 @@ mod tests {
                 let f = if k == long { 300.0 } else { 1.0 };
                 pts.push(last + Vec3::new(x, y, z) * (scale * f));
             }
-            let prog = Program { points: &pts, tol_mm: 0.01 };
+            let prog = ProgrammedPath { points: &pts, tol_mm: 0.01 };
             let grid = SegGrid::new(&pts, prog.tol_mm);
             let c = Vec3::new(q.0, q.1, 0.0) * scale.sqrt();
             let (a, b) = (c, c + Vec3::new(q.2, -q.2, 0.0));
@@ -687,7 +687,7 @@ mod tests {
                 }
             }
             *pts.last_mut().unwrap() = *program.last().unwrap();
-            let prog = Program { points: &program, tol_mm: tol };
+            let prog = ProgrammedPath { points: &program, tol_mm: tol };
             lift_short_blocks(Vec3::ZERO, &mut pts, 0.03, &prog, |p| p);
             let mut out = vec![Vec3::ZERO];
             out.extend_from_slice(&pts);

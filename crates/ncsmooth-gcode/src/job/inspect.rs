@@ -36,7 +36,7 @@ pub struct InspectReport {
     /// Lines whose motion smoothing may replace (executed once at the top level, nothing
     /// but motion words); every other line is written back verbatim.
     pub replaceable_lines: usize,
-    /// Parser warnings (the first [`MAX_KEPT_WARNINGS`]).
+    /// Parser warnings (the first `MAX_KEPT_WARNINGS`).
     pub warnings: Vec<String>,
     /// Warnings beyond those listed, counted only.
     pub warnings_not_listed: usize,

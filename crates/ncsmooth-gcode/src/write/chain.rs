@@ -11,13 +11,13 @@
 //! and curves alike) as one dense polyline and cuts it greedily into the longest blocks
 //! whose chord stays within the tolerance:
 //!
-//! 1. the chain is flattened finely (within [`DENSE_SHARE`] of the chord tolerance), every
+//! 1. the chain is flattened finely (within `DENSE_SHARE` of the chord tolerance), every
 //!    move end being a dense point;
 //! 2. from the last written point `a`, the block is extended to dense point `j` while every
 //!    dense point between them lies within `chord - dense` of the segment from `a` to the
 //!    *rounded* `j` (the point as it will be printed), with projections in order along it
 //!    (a step back shorter than the tolerance is a wiggle, not a reversal);
-//! 3. points where the dense polyline turns by more than [`BREAK_TURN_DEG`] (a sharp
+//! 3. points where the dense polyline turns by more than `BREAK_TURN_DEG` (a sharp
 //!    corner the smoothing left) are always written, so corners are never cut; the turn
 //!    is measured over the tolerance, so a cluster of sub-micrometre steps (a CAM file's
 //!    quantisation) is one corner at most, not one block per step;
@@ -45,18 +45,18 @@ use ncsmooth::geom::Vec3;
 
 /// Accuracy of the dense flattening, as a share of the chord tolerance; the rest of the
 /// chord is what merging may use.
-pub const DENSE_SHARE: f64 = 0.25;
+pub(crate) const DENSE_SHARE: f64 = 0.25;
 
 /// A dense point where the polyline turns by more than this (degrees) is always written.
-pub const BREAK_TURN_DEG: f64 = 20.0;
+pub(crate) const BREAK_TURN_DEG: f64 = 20.0;
 
 /// Most dense points one written block may span (bounds the quadratic cost of the
 /// greedy test on long straight runs).
-pub const MAX_SPAN_POINTS: usize = 512;
+pub(crate) const MAX_SPAN_POINTS: usize = 512;
 
 /// Sharp turns of the dense polyline: `hard[k]` when the polyline turns at `k` by more
-/// than [`BREAK_TURN_DEG`]. The turn is measured between the chords to the nearest dense
-/// points at least `span_mm` away on either side (at most [`MAX_SPAN_POINTS`] points
+/// than `BREAK_TURN_DEG`. The turn is measured between the chords to the nearest dense
+/// points at least `span_mm` away on either side (at most `MAX_SPAN_POINTS` points
 /// away), and of sharp points closer than `span_mm` to each other along the polyline only
 /// the sharpest is hard: a cluster of sub-micrometre steps in arbitrary directions is
 /// not a corner, and writing each of its points gave blocks of one written unit turning
@@ -194,10 +194,10 @@ fn longest_line(
 }
 
 /// Fewest dense steps an arc spans: shorter spans are lines.
-pub const MIN_ARC_SPAN: usize = 3;
+pub(crate) const MIN_ARC_SPAN: usize = 3;
 
 /// Largest radius (mm) fitted as an arc; flatter runs are lines.
-pub const MAX_ARC_RADIUS_MM: f64 = 1e4;
+pub(crate) const MAX_ARC_RADIUS_MM: f64 = 1e4;
 
 /// A piece of the written path from [`fit_arcs`]: a line or an arc in the XY plane (its Z
 /// linear in the swept angle, a helix), ending at the rounded dense point `to`.

@@ -1,5 +1,5 @@
 //! Extra axes along a chain of long G1 blocks: a slicer's extrusion `E` carried through
-//! the `lines` emitter's merging ([`crate::chain`]).
+//! the `lines` emitter's merging ([`crate::write::chain`]).
 //!
 //! A 3-D printer's program moves `E` with every extruding line. Writing each smoothed
 //! piece on its own (as the writer did for every move with extra axes) gave Marlin and

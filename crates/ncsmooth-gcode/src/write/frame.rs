@@ -42,7 +42,7 @@ pub(crate) struct Frame {
     pub plane: u8,
     /// Extra axes in use (bit per [`EXTRA_AXIS_NAMES`]).
     pub extra_mask: u8,
-    /// `Some`: runs of feed moves are written as long blocks ([`crate::chain`]); `None`:
+    /// `Some`: runs of feed moves are written as long blocks ([`crate::write::chain`]); `None`:
     /// move by move.
     pub chain: Option<ChainMode>,
     /// Planes for `G2`/`G3` (bit 0 G17, bit 1 G18, bit 2 G19).

@@ -13,7 +13,7 @@
 //!   plane word is written when it changes), with both in-plane end coordinates, the axial
 //!   coordinate for helices, both centre offsets, and `P` for multi-turn arcs. Centre
 //!   offsets are taken from the *written* (rounded) start point and written with
-//!   [`CENTRE_EXTRA_DECIMALS`] more digits than the coordinates, so the centre the reader
+//!   `CENTRE_EXTRA_DECIMALS` more digits than the coordinates, so the centre the reader
 //!   computes is essentially exact. Arcs in other planes, arcs whose
 //!   radius is under two units of the last decimal, and arcs that rounding would turn into
 //!   a full circle are flattened to `G1` lines within `chord_mm` with

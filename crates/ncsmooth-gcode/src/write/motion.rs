@@ -49,7 +49,7 @@ pub(crate) struct MotionWriter {
     /// Under a long-lines emitter, short blocks are lifted against this program.
     pub floor: Option<Floor>,
     /// LinuxCNC's `G64 P` of the runs (mm): the long-lines emitter evens out its blocks
-    /// for the blends ([`crate::chain::even_out`]).
+    /// for the blends ([`crate::controller::linuxcnc::even_out::even_out`]).
     pub blend_p_mm: Option<f64>,
     /// Per-block `G64 P` under a long-lines emitter (LinuxCNC).
     pub blend_schedule: Option<BlendSchedule>,
@@ -77,7 +77,7 @@ pub(crate) struct MotionWriter {
 
 /// Distance (mm) within which a written block ends on the programmed point a run ends at
 /// (the writer then prints that point with its own digits).
-pub const EXACT_END_SNAP_MM: f64 = 1e-9;
+pub(crate) const EXACT_END_SNAP_MM: f64 = 1e-9;
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
@@ -85,7 +85,7 @@ const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 /// this many lines is written as `G2`/`G3` (where its plane allows and the dialect keeps
 /// long arcs, [`crate::Dialect::keeps_long_arcs`]) and ends the chain of lines; shorter
 /// arcs (the small transitions of a smoothed corner) join the chain.
-pub const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
+pub(crate) const NATIVE_ARC_MIN_BLOCKS: f64 = 4.0;
 
 /// Largest spread of Z (mm) among the control points of a curve written as `G5`/`G5.2`
 /// (which carry no Z): numerical noise of a fit in a plane, below any printed decimal.
@@ -105,14 +105,14 @@ const DEFAULT_CHORD_MM: f64 = 0.001;
 /// tiny). A reader that rounds the end points (LinuxCNC's canonical output prints four
 /// decimals, grbl computes in single precision) could otherwise take such an arc for a full
 /// circle.
-pub const MIN_ARC_CHORD_MM: f64 = 0.005;
+pub(crate) const MIN_ARC_CHORD_MM: f64 = 0.005;
 /// The same minimum in units of the last written decimal.
 const MIN_ARC_CHORD_UNITS: f64 = 20.0;
 
 /// Smallest arc radius written as G2/G3 (mm): twice LinuxCNC's zero-radius limit
-/// ([`crate::interp::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
+/// ([`crate::interpreter::motion::RADIUS_TOLERANCE_MM`]), so that no reader refuses it; smaller
 /// arcs are flattened.
-pub const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interp::motion::RADIUS_TOLERANCE_MM;
+pub(crate) const MIN_ARC_RADIUS_MM: f64 = 2.0 * crate::interpreter::motion::RADIUS_TOLERANCE_MM;
 
 fn coord(v: Vec3, i: usize) -> f64 {
     match i {
@@ -677,7 +677,7 @@ impl MotionWriter {
     }
 
     /// Writes consecutive moves: with [`Frame::chain_min_block_mm`], each run of
-    /// chainable moves at one feed as long G1 blocks ([`crate::chain`]), the rest move by
+    /// chainable moves at one feed as long G1 blocks ([`crate::write::chain`]), the rest move by
     /// move.
     pub(crate) fn write_moves<W: fmt::Write>(
         &mut self,
@@ -802,7 +802,7 @@ impl MotionWriter {
         Some(self.chain_extra.as_mut()?.at_dense(k))
     }
 
-    /// Writes `dense` as the longest lines within `tol` ([`crate::chain::simplify`]);
+    /// Writes `dense` as the longest lines within `tol` ([`crate::write::chain::simplify`]);
     /// with `lift` and a [`Floor`], short blocks are then lifted against the program.
     #[allow(clippy::too_many_arguments)]
     fn write_lines<W: fmt::Write>(
@@ -940,7 +940,7 @@ impl MotionWriter {
         self.blend_pending = Some(text);
     }
 
-    /// Writes `dense` as lines and XY arcs within `tol` ([`crate::chain::fit_arcs`]); an
+    /// Writes `dense` as lines and XY arcs within `tol` ([`crate::write::chain::fit_arcs`]); an
     /// arc the writer cannot carry as `G2`/`G3` is written as lines instead.
     fn write_arc_pieces<W: fmt::Write>(
         &mut self,

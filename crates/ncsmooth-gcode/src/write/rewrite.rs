@@ -30,7 +30,7 @@ use crate::controller::floor::Floor;
 use crate::controller::linuxcnc::blend::{BlendSchedule, RunEnd, RunEnds};
 use crate::controller::linuxcnc::g64::{blend_text, path_mode_text, push_blend_line};
 use crate::controller::linuxcnc::Blend;
-use crate::interp::program::Program;
+use crate::interpreter::program::Program;
 use crate::numbers::{push_fixed, unit_mm};
 use crate::source::{flags, LineInfo, PathMode, Plane, WriteState};
 use ncsmooth::geom::{
@@ -39,9 +39,8 @@ use ncsmooth::geom::{
 use ncsmooth::path::{Block, EventKind, ExtraAxes, Move, MoveKind, Toolpath};
 
 mod options;
+use crate::numbers::decimals_for;
 pub use options::*;
-// compatibility path: `rewrite::{decimals_for, rounding_mm_for}`
-pub use crate::numbers::{decimals_for, rounding_mm_for};
 
 /// Why a rewrite is impossible (a bug in what produced the toolpath, never bad input).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -15,7 +15,7 @@ pub const LINUXCNC_TANGENTIAL_ACC_SHARE: f64 = 0.5;
 
 /// Passes of a [`BlendSchedule`]'s speed estimate: each takes the acceleration along a
 /// block from the share of it the previous pass's blends take.
-pub const BLEND_SCHEDULE_SPEED_PASSES: usize = 4;
+pub(crate) const BLEND_SCHEDULE_SPEED_PASSES: usize = 4;
 
 /// Servo periods of straight line LinuxCNC leaves between two blend arcs; a shorter
 /// remainder is consumed by the blends (tp.c `ARC_BLEND_GAP_CYCLES`).
@@ -30,11 +30,11 @@ pub const LINUXCNC_TANGENT_KINK_RATIO: f64 = 0.1;
 
 /// Smallest share of `P` a block gets under a [`BlendSchedule`] (the fastest of 1/8 to
 /// 1/64 on LinuxCNC 2.9, docs/benchmarks/2026-12-03.md).
-pub const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
+pub(crate) const BLEND_SCHEDULE_MIN_SHARE: f64 = 1.0 / 16.0;
 
 /// Steps per halving of `P` a [`BlendSchedule`] rounds its shares up to (4: shares are
 /// powers of `2^(1/4)`), trading `G64` lines for time (docs/benchmarks/2026-12-03.md).
-pub const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
+pub(crate) const BLEND_SCHEDULE_STEPS_PER_HALVING: f64 = 4.0;
 
 /// A block cut in two by a [`BlendSchedule`] (`BlendSchedule::splits`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,15 +88,15 @@ pub(crate) struct BlendPlan {
 
 /// A [`BlendSchedule`] splits a block where that lowers a vertex's `P` by at least this
 /// factor (two of its steps, [`BLEND_SCHEDULE_STEPS_PER_HALVING`]).
-pub const SPLIT_MIN_GAIN: f64 = 1.41;
+pub(crate) const SPLIT_MIN_GAIN: f64 = 1.41;
 /// Room a split keeps on each piece over what LinuxCNC's blends need of it.
-pub const SPLIT_ROOM: f64 = 1.2;
+pub(crate) const SPLIT_ROOM: f64 = 1.2;
 /// Largest share of the acceleration a split's kink may take (tp.c `tpSetupTangent`
 /// joins two lines as tangent when the kink at full speed takes less than
 /// [`LINUXCNC_TANGENT_KINK_RATIO`], and lowers both lines' acceleration by that share).
-pub const SPLIT_KINK_RATIO: f64 = 0.02;
+pub(crate) const SPLIT_KINK_RATIO: f64 = 0.02;
 /// Points tried along a block for a split.
-pub const SPLIT_CANDIDATES: usize = 256;
+pub(crate) const SPLIT_CANDIDATES: usize = 256;
 
 /// What moves next to a run of blocks at one of its ends, for a [`BlendSchedule`]'s
 /// speed estimate.
@@ -152,7 +152,7 @@ pub struct RunEnds {
 /// (a forward and a backward pass). Along what the blends take of a block LinuxCNC
 /// accelerates with [`LINUXCNC_TANGENTIAL_ACC_SHARE`] of the acceleration, the full rate
 /// only on the line they leave, so the estimate is made again with the shares the last
-/// one gave ([`BLEND_SCHEDULE_SPEED_PASSES`] passes at most). So the vertices where
+/// one gave (`BLEND_SCHEDULE_SPEED_PASSES` passes at most). So the vertices where
 /// LinuxCNC brakes for, or leaves, a tight turn get a small `P` as well, not only the
 /// gently curved ones at full feed. A block whose blends leave less than
 /// [`LINUXCNC_BLEND_GAP_CYCLES`] servo periods of line at that speed is consumed
@@ -160,14 +160,14 @@ pub struct RunEnds {
 /// vertices still get only what their speed needs, the least `P` consuming the least of
 /// the next blocks. Vertices LinuxCNC joins as tangent (below
 /// [`LINUXCNC_TANGENT_KINK_RATIO`]) take nothing. Shares are clamped to
-/// [`BLEND_SCHEDULE_MIN_SHARE`]` ..= 1` and rounded up to a power of `2^(1/4)`
-/// ([`BLEND_SCHEDULE_STEPS_PER_HALVING`]); a block gets the larger of its two vertices'
+/// `BLEND_SCHEDULE_MIN_SHARE ..= 1` and rounded up to a power of `2^(1/4)`
+/// (`BLEND_SCHEDULE_STEPS_PER_HALVING`); a block gets the larger of its two vertices'
 /// (a blend uses the smaller `P` of its two blocks), and the run's ends where a move
 /// may join them, and the run's own `P` after the chain, get all of it. `P` is never
 /// larger than the run's, so the
 /// tolerance budget is unchanged (the schedule's own shares; a programmed corner put in
 /// place of short blocks, and a point whose speed needs all of `P`, get more where the
-/// tolerance leaves it, [`crate::rewrite::CornerBlend`], checked by the model of the
+/// tolerance leaves it, [`crate::controller::linuxcnc::CornerBlend`], checked by the model of the
 /// executed path).
 ///
 /// A vertex between two blocks that carry more for their other vertices (a gentle turn
@@ -534,7 +534,7 @@ impl BlendSchedule {
 
 /// Points sampled along each line where LinuxCNC's blend at a point given more than the
 /// run's `P` may run, to bound the line's deviation there.
-pub const ROOM_SAMPLES: usize = 32;
+pub(crate) const ROOM_SAMPLES: usize = 32;
 
 /// The `P` point `k` of a chain from `start` through `pts` (not the last) may take under
 /// LinuxCNC, as a [`VertexRoom`]; `corner`: a programmed corner put in place of short

@@ -7,11 +7,11 @@ use crate::polyline::fits;
 use ncsmooth::geom::Vec3;
 
 /// Passes of [`even_out`] over a chain's written points.
-pub const EVEN_OUT_SWEEPS: usize = 3;
+pub(crate) const EVEN_OUT_SWEEPS: usize = 3;
 
 /// Places [`even_out`] tries for a written point: this many steps of equal arc length
 /// along the dense polyline between its neighbours.
-pub const EVEN_OUT_STEPS: usize = 16;
+pub(crate) const EVEN_OUT_STEPS: usize = 16;
 
 /// A written point's place on the dense polyline: on the chord from `dense[i]` to
 /// `dense[i + 1]` at the fraction `f` in `[0, 1)` of it.
@@ -61,18 +61,18 @@ pub struct EvenOut<S, R> {
     pub dense_acc_mm: f64,
 }
 
-/// Moves the written points [`simplify`](crate::write::chain::simplify) chose along the dense polyline so that the
+/// Moves the written points `write::chain::simplify` chose along the dense polyline so that the
 /// smallest of `how.score` over the junctions each one touches grows, keeping every
-/// block within `tol_mm` (the fit test of [`simplify`](crate::write::chain::simplify), rounding included): for a
+/// block within `tol_mm` (the fit test of `simplify`, rounding included): for a
 /// controller that blends its junctions by the length of the blocks (LinuxCNC takes at
 /// most half of each line for a blend arc), the greedy cut's long block beside a short
 /// one leaves a tight blend where an even cut gives the curve's own radius.
 ///
-/// `idx` is what [`simplify`](crate::write::chain::simplify) returned for `pts`, the written points after `start`.
+/// `idx` is what `simplify` returned for `pts`, the written points after `start`.
 /// Hard points and the ends stay, no block is made shorter than `min_block_mm` unless it
 /// already was, and a point moved between dense points lies inside the curve by no more
-/// than `how.room` allows there. Each point is tried at [`EVEN_OUT_STEPS`] places of
-/// equal arc length between its neighbours, in [`EVEN_OUT_SWEEPS`] passes.
+/// than `how.room` allows there. Each point is tried at `EVEN_OUT_STEPS` places of
+/// equal arc length between its neighbours, in `EVEN_OUT_SWEEPS` passes.
 #[allow(clippy::too_many_arguments)]
 pub fn even_out<S, R>(
     dense: &[Vec3],

@@ -44,7 +44,7 @@
 //! `tpCheckCanonType`).
 //!
 //! Both are upper bounds within the given accuracy, for every choice LinuxCNC makes. `T` is
-//! widened by [`LINUXCNC_BLEND_EXCESS_SHARE`]: LinuxCNC's arcs were measured up to 1.3 %
+//! widened by `LINUXCNC_BLEND_EXCESS_SHARE`: LinuxCNC's arcs were measured up to 1.3 %
 //! beyond it.
 //!
 //! ## Limits
@@ -56,7 +56,7 @@
 //! `G64`, on its own lines, is the program's: the model caps every `P` at the largest one
 //! the writer gives (`cap_mm`).
 
-use crate::interp::program::Program;
+use crate::interpreter::program::Program;
 use crate::source::PathMode;
 use ncsmooth::geom::{Line, ParamCurve, Segment, Vec3};
 use ncsmooth::path::MoveKind;
@@ -76,7 +76,7 @@ const MAX_CELLS_PER_BLEND: usize = 1024;
 /// slightly beyond it: measured with `linuxcnc_run.py` (50 mm/s, 500 mm/s^2) at lone
 /// corners between 20 mm lines under `G64 P0.00971 Q0`, the corner's distance to the
 /// executed path was 1.003 to 1.013 `P` (turns of 15 to 150 degrees, `scripts/linuxcnc_corner_excess.py`).
-pub const LINUXCNC_BLEND_EXCESS_SHARE: f64 = 0.02;
+pub(crate) const LINUXCNC_BLEND_EXCESS_SHARE: f64 = 0.02;
 
 /// Deviation of the path LinuxCNC executes (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]

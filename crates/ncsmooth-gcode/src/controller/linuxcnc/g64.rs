@@ -46,7 +46,7 @@ pub(crate) fn blend_words(p_mm: f64, q_mm: f64, scale: f64, decimals: usize) -> 
     t
 }
 
-/// `G64 P Q` for `blend` in a program in `units` ([`crate::writer::blend_words`]).
+/// `G64 P Q` for `blend` in a program in `units` ([`crate::controller::linuxcnc::g64::blend_words`]).
 pub(crate) fn blend_text(blend: Blend, units: Units, decimals: usize) -> String {
     blend_words(blend.p_mm, blend.q_mm, unit_mm(units), decimals)
 }

@@ -27,7 +27,7 @@ pub struct Blend {
     pub q_mm: f64,
 }
 
-/// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`](crate::rewrite::BlockFloor::corner)):
+/// The `P` a written point may get under LinuxCNC beyond the run's ([`BlockFloor::corner`](crate::write::rewrite::BlockFloor::corner)):
 /// a programmed corner put in place of short blocks, and a point whose speed needs all of
 /// the run's `P` (a tight turn), may have their blends take what the tolerance leaves
 /// after the lines beside them (the writer's `vertex_room`).

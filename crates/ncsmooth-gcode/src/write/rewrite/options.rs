@@ -51,21 +51,21 @@ pub struct RewriteOptions {
     pub rewrite_unchanged: bool,
     /// Under [`Emit::Lines`], [`Emit::G5`] and [`Emit::Nurbs`]: blocks shorter than the
     /// floor are lifted where the written path stays within its tolerance of the
-    /// programmed path ([`crate::chain::lift_short_blocks`]). Default `None`.
+    /// programmed path ([`crate::controller::floor::lift_short_blocks`]). Default `None`.
     pub block_floor: Option<BlockFloor>,
     /// Under the chaining emitters, an arc that would take
-    /// [`crate::writer::NATIVE_ARC_MIN_BLOCKS`] chords stays one `G2`/`G3`; `false`
+    /// `NATIVE_ARC_MIN_BLOCKS` chords stays one `G2`/`G3`; `false`
     /// flattens it with the rest of its run where it meets a flattened curve
     /// ([`crate::Dialect::keeps_long_arcs`]). Default true.
     pub long_arcs: bool,
     /// With [`RewriteOptions::blend`]: the machine's acceleration (mm/s^2). Blocks where
-    /// the speed allows then get a smaller `P` ([`crate::writer::BlendSchedule`]),
+    /// the speed allows then get a smaller `P` ([`crate::controller::linuxcnc::blend::BlendSchedule`]),
     /// so that LinuxCNC's blends leave their lines, along which it accelerates with the
     /// whole of it. Default `None`: one `P` for the whole run.
     pub blend_acc_mm_s2: Option<f64>,
     /// With [`RewriteOptions::blend`] and a long-lines emitter: the blocks of a chain are
     /// evened out for LinuxCNC's blends, which take at most half of each line
-    /// ([`crate::chain::even_out`]), a point moved inside the curve by no more than its
+    /// ([`crate::controller::linuxcnc::even_out::even_out`]), a point moved inside the curve by no more than its
     /// blend leaves of `P`. Default false.
     pub even_out: bool,
     /// With [`RewriteOptions::blend_acc_mm_s2`]: the machine's fastest feed (mm/s), which
@@ -90,7 +90,7 @@ pub struct BlockFloor {
 
 /// Accuracy of the programmed curves' flattening for [`BlockFloor`], as a share of its
 /// tolerance (deducted from it).
-pub const FLOOR_PROGRAM_SHARE: f64 = 0.01;
+pub(crate) const FLOOR_PROGRAM_SHARE: f64 = 0.01;
 
 impl Default for RewriteOptions {
     fn default() -> Self {
@@ -122,7 +122,7 @@ pub enum Emit {
     Native,
     /// Each run of feed moves at one feed (lines, arcs and curves alike) as the longest
     /// `G1` blocks whose chord, rounding included, stays within the chord tolerance
-    /// ([`crate::chain`]); `E` is carried along the blocks ([`crate::chain_extra`]), moves
+    /// (`write::chain`); `E` is carried along the blocks (`write::chain_extra`), moves
     /// with other extra axes (A..W) are written move by move.
     Lines {
         /// A last block of a run shorter than `min_block_mm`, or than the run's feed
@@ -134,7 +134,7 @@ pub enum Emit {
     },
     /// As [`Emit::Lines`], with arcs: from each written point the longer of the longest
     /// line and the longest XY arc (`G2`/`G3`, helical when Z changes) within the chord
-    /// of every point and every chord it spans ([`crate::chain::fit_arcs`]).
+    /// of every point and every chord it spans (`write::chain::fit_arcs`).
     Arcs,
     /// As [`Emit::Lines`], with every cubic Bézier in an XY plane (the B-spline method's
     /// curves) written exactly as one `G5` (LinuxCNC, grblHAL, Marlin).

@@ -28,10 +28,10 @@ use std::collections::HashMap;
 
 /// Deepest subroutine nesting (LinuxCNC allows 10 in its standard build; deeper nesting is
 /// refused here too so that runaway recursion ends).
-pub const MAX_CALL_DEPTH: usize = 64;
+pub(crate) const MAX_CALL_DEPTH: usize = 64;
 /// Most loop iterations and subroutine calls (all together) before the program is
 /// declared endless.
-pub const MAX_ITERATIONS: u64 = 10_000_000;
+pub(crate) const MAX_ITERATIONS: u64 = 10_000_000;
 
 /// An O-word keyword.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

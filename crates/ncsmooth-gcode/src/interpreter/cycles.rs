@@ -114,13 +114,13 @@ const ABSENT_PQ: f64 = -1.0;
 /// LinuxCNC's `read_integer_value`: a value within this of an integer is that integer.
 const INTEGER_TOLERANCE: f64 = 1e-4;
 /// Grid (inch) to which an inch position converted back from millimetres is rounded.
-pub const INCH_SNAP: f64 = 1e-10;
+pub(crate) const INCH_SNAP: f64 = 1e-10;
 /// Positions beyond this magnitude (program units) are not rounded (the grid would lose
 /// precision).
 const SNAP_LIMIT: f64 = 1e5;
 /// Most moves and events one cycle block may expand into (a tiny `Q` or a huge `L` would
 /// otherwise exhaust memory).
-pub const MAX_CYCLE_STEPS: usize = 100_000;
+pub(crate) const MAX_CYCLE_STEPS: usize = 100_000;
 
 /// Whether motion code `m` (tenths) is a canned cycle.
 pub(crate) fn is_cycle(m: u16) -> bool {

@@ -45,7 +45,7 @@ use ncsmooth::path::{EventKind, ExtraAxes, Move, MoveKind, Units, E_AXIS};
 /// Largest position an axis may reach (mm, or degrees for A B C): 1000 km, where an f64
 /// still resolves 1.2e-7 mm. Beyond it a position cannot carry the micrometre-level
 /// geometry of smoothing and verification, and the program is refused.
-pub const MAX_COORDINATE: f64 = 1e9;
+pub(crate) const MAX_COORDINATE: f64 = 1e9;
 
 /// LinuxCNC's `RADIUS_TOLERANCE_INCH`: the smallest arc radius, and the slack of an R
 /// arc's chord over its diameter (inch).
