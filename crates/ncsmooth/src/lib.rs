@@ -47,11 +47,11 @@ pub mod decimal;
 pub mod feed;
 pub mod geom;
 pub mod interp;
-pub mod par;
+mod par;
 pub mod path;
 pub mod profiles;
 pub mod smooth;
-pub mod stats;
+mod stats;
 pub mod verify;
 
 pub use feed::PlanOptions;
@@ -61,6 +61,7 @@ pub use interp::{
     SetpointSink, SetpointWriter,
 };
 pub use par::{set_threads, threads};
+pub use stats::{AngleBin, LengthStats, PathStats, PathStatsBuilder, CORNER_BINS_DEG};
 pub use path::{Block, Event, EventKind, Move, MoveKind, Toolpath, Units};
 pub use smooth::stream::{smooth_for_plan, StreamOptions, StreamSmoother, PLAN_WINDOW_MOVES};
 pub use smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};

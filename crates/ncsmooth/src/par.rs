@@ -20,7 +20,7 @@ static THREADS: AtomicUsize = AtomicUsize::new(0);
 
 /// Sets the most threads ncsmooth's parallel work uses, for the whole process: 1 runs it
 /// all on the calling thread (the pipeline's stages aside, see the module doc); 0
-/// restores the default, the machine's cores up to [`MAX_THREADS`]. Results never depend
+/// restores the default, the machine's cores up to `MAX_THREADS` (4). Results never depend
 /// on it.
 pub fn set_threads(n: usize) {
     THREADS.store(n, Ordering::Relaxed);

@@ -5,7 +5,7 @@
 
 use crate::stream::MAX_KEPT_WARNINGS;
 use crate::{BlockReader, ParseError, ParseOptions, ParseStats, Program};
-use ncsmooth::stats::{PathStats, PathStatsBuilder};
+use ncsmooth::{PathStats, PathStatsBuilder};
 use serde::Serialize;
 use std::path::Path;
 

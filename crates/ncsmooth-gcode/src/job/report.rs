@@ -7,7 +7,7 @@ use crate::{Dialect, Units};
 use ncsmooth::interp::PlanReport;
 use ncsmooth::smooth::trig_corner::LoopCheck;
 use ncsmooth::smooth::SmoothReport;
-use ncsmooth::stats::PathStats;
+use ncsmooth::PathStats;
 use ncsmooth::verify::{Continuity, Deviation};
 use serde::Serialize;
 

@@ -26,7 +26,7 @@
 //! 2. **Spots.** Local minima of the modelled speed below
 //!    [`TimeShapeOptions::slow_share`] of the feed, slowest first, far enough apart that
 //!    the control points they move do not share a span; each spot is shaped on its own
-//!    (in parallel, [`crate::par`]) and the moved control points are merged.
+//!    (in parallel, [`crate::set_threads`]) and the moved control points are merged.
 //! 3. **Window.** Knots are inserted (NURBS Book A5.1, the curve unchanged) so that the
 //!    spans within [`TimeShapeOptions::free_half_mm`] of the spot are at most
 //!    [`TimeShapeOptions::dense_span_mm`] long; the control points whose Greville
