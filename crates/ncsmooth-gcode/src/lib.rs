@@ -19,7 +19,7 @@
 //!
 //! | Jobs | |
 //! |---|---|
-//! | [`SmoothJob`], [`Smoothed`], [`SmoothRunReport`] | the verified pipeline from a program's text to the G-code a controller runs, and its report |
+//! | [`SmoothJob`], [`SmoothedGcode`], [`SmoothRunReport`] | the verified pipeline from a program's text to the G-code a controller runs, and its report |
 //! | [`PlanJob`], [`PlanInput`], [`Planned`], [`PlanRunReport`] | smoothing and planning a program (a file streamed, or a path held whole) into setpoints, the limits checked on them, and its report |
 //! | [`InspectReport`] | what a program holds |
 //!
@@ -102,5 +102,5 @@ pub use budget::{read_back, read_back_with, read_written, read_written_with, Bud
 pub use job::{
     check_period, write_path_samples, BlendReport, BlockReport, EmitStyle, InspectReport, JobError,
     MovesByCode, PlanInput, PlanJob, PlanNote, PlanRunReport, Planned, SmoothJob, SmoothRunReport,
-    Smoothed, Timings, MAX_PERIOD_S, MIN_PERIOD_S,
+    SmoothedGcode, Timings, MAX_PERIOD_S, MIN_PERIOD_S,
 };

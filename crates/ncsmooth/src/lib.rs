@@ -61,8 +61,8 @@ pub use interp::{
     SetpointSink, SetpointWriter,
 };
 pub use par::{set_threads, threads};
-pub use stats::{AngleBin, LengthStats, PathStats, PathStatsBuilder, CORNER_BINS_DEG};
 pub use path::{Block, Event, EventKind, Move, MoveKind, Toolpath, Units};
 pub use smooth::stream::{smooth_for_plan, StreamOptions, StreamSmoother, PLAN_WINDOW_MOVES};
 pub use smooth::{smooth, Method, SmoothOptions, SmoothReport, Smoothed};
+pub use stats::{AngleBin, LengthStats, PathStats, PathStatsBuilder, CORNER_BINS_DEG};
 pub use verify::{deviation, Deviation};

@@ -213,9 +213,9 @@ impl SmoothJob {
 }
 
 /// A job's result: the written text and the report. Whether it holds the tolerance is in
-/// the report; [`Smoothed::verified`] says it as an error.
+/// the report; [`SmoothedGcode::verified`] says it as an error.
 #[derive(Debug)]
-pub struct Smoothed {
+pub struct SmoothedGcode {
     /// G-code text (the program's own bytes where they are copied).
     pub gcode: Vec<u8>,
     /// What was done and measured.

@@ -7,8 +7,8 @@ use crate::{Dialect, Units};
 use ncsmooth::interp::PlanReport;
 use ncsmooth::smooth::trig_corner::LoopCheck;
 use ncsmooth::smooth::SmoothReport;
-use ncsmooth::PathStats;
 use ncsmooth::verify::{Continuity, Deviation};
+use ncsmooth::PathStats;
 use serde::Serialize;
 
 /// Seconds spent per stage.

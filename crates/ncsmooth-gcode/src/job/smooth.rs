@@ -3,7 +3,7 @@
 
 use super::policy::*;
 use super::report::{BlendReport, BlockReport, SmoothRunReport, Timings};
-use super::{EmitStyle, JobError, SmoothJob, Smoothed};
+use super::{EmitStyle, JobError, SmoothJob, SmoothedGcode};
 use crate::budget::{read_back_with, read_written_with, Budget};
 use crate::controller::linuxcnc::budget::*;
 use crate::controller::linuxcnc::executed::Executed;
@@ -20,7 +20,7 @@ use std::time::Instant;
 impl SmoothJob {
     /// Parses `src` (named `name` in errors and the header) with [`SmoothJob::read`] and
     /// runs the job on it ([`SmoothJob::run`]); the parse time is in the report.
-    pub fn run_bytes(&self, name: &str, src: &[u8]) -> Result<Smoothed, JobError> {
+    pub fn run_bytes(&self, name: &str, src: &[u8]) -> Result<SmoothedGcode, JobError> {
         let t0 = Instant::now();
         let program = crate::parse_bytes(src, name, &self.read)?;
         let parse_s = t0.elapsed().as_secs_f64();
@@ -30,8 +30,13 @@ impl SmoothJob {
     }
 
     /// Smooths, writes and verifies `program`, parsed from `src` with [`SmoothJob::read`].
-    /// An `Ok` may still be outside the tolerance: see [`Smoothed::verified`].
-    pub fn run(&self, name: &str, src: &[u8], program: &Program) -> Result<Smoothed, JobError> {
+    /// An `Ok` may still be outside the tolerance: see [`SmoothedGcode::verified`].
+    pub fn run(
+        &self,
+        name: &str,
+        src: &[u8],
+        program: &Program,
+    ) -> Result<SmoothedGcode, JobError> {
         // For LinuxCNC's lines the curves first get what its modelled blending leaves, less
         // what the model found over tol in a first build; where that is not confirmed either,
         // the program is built as it was before the model, each part paid in full.
@@ -90,7 +95,7 @@ impl SmoothJob {
         src: &[u8],
         program: &Program,
         rule: BudgetRule,
-    ) -> Result<Smoothed, JobError> {
+    ) -> Result<SmoothedGcode, JobError> {
         let shares = Shares::of(self, program, rule)?;
         let (opts, loop_size) = self.curve_options(&shares)?;
         let mut t = Timings::default();
@@ -127,7 +132,7 @@ impl SmoothJob {
             }
             _ => None,
         };
-        Ok(Smoothed {
+        Ok(SmoothedGcode {
             gcode,
             report,
             loop_size_mm,
@@ -509,7 +514,7 @@ fn blend_report(b: Blend, s: &Shares, dev: &Deviation, executed: Option<&Execute
     }
 }
 
-impl Smoothed {
+impl SmoothedGcode {
     /// `Ok` when the written program, read back, is within the tolerance (the model of the
     /// controller's executed path included), its loops within their size and its extra
     /// axes where the program has them; else the [`JobError::Verification`] saying where.
