@@ -13,12 +13,12 @@ use crate::path::Block;
 use std::sync::Arc;
 
 /// Moves a [`IndexFeeder`] indexes at a time: their lengths and joints are computed in
-/// parallel as [`PathIndex::new`] does for a whole program.
+/// parallel as [`super::PathIndex::new`] does for a whole program.
 pub const FEED_BATCH_MOVES: usize = 4096;
 
 /// Indexes a program that arrives block by block into the [`MoveWindow`] of a streamed
-/// [`PathIndex`]: each move's length and joint, its stop, extra-axis rests, exactly as
-/// [`PathIndex::new`] indexes a whole program (same functions, same order), a batch of
+/// [`super::PathIndex`]: each move's length and joint, its stop, extra-axis rests, exactly as
+/// [`super::PathIndex::new`] indexes a whole program (same functions, same order), a batch of
 /// [`FEED_BATCH_MOVES`] at a time. The last move indexed is held back until the next one
 /// (its joint) or the end is known.
 pub struct IndexFeeder<'o> {
@@ -138,7 +138,7 @@ impl<'o> IndexFeeder<'o> {
     }
 }
 
-/// A move of a [`PathIndex`]: borrowed from a whole program's index or shared from a
+/// A move of a [`super::PathIndex`]: borrowed from a whole program's index or shared from a
 /// streamed one's window.
 #[derive(Clone, Debug)]
 pub enum MoveRef<'a> {
@@ -159,7 +159,7 @@ impl std::ops::Deref for MoveRef<'_> {
     }
 }
 
-/// A rest of a [`PathIndex`] (as [`MoveRef`]).
+/// A rest of a [`super::PathIndex`] (as [`MoveRef`]).
 #[derive(Clone, Debug)]
 pub enum RestRef<'a> {
     /// In a whole program's index.

@@ -183,7 +183,7 @@ impl PathIndex {
         }
     }
     /// The index of a streamed program whose moves arrive in `window` (see
-    /// [`super::window`]); `start` is where the program starts when it has no move.
+    /// [`crate::feed::window`]); `start` is where the program starts when it has no move.
     pub fn streamed(window: Arc<MoveWindow>, start: Vec3, extra_axes_mask: u8) -> PathIndex {
         PathIndex {
             moves: Vec::new(),

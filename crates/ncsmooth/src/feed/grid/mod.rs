@@ -11,7 +11,7 @@
 //!
 //! ## Refinement of curved intervals
 //! The planner imposes the per-axis acceleration `a_i = u T_i + x K_i` exactly at both
-//! ends of a curved interval and at its parameter midpoint ([`IntervalMid`]; the
+//! ends of a curved interval and at its parameter midpoint ([`super::limits::IntervalMid`]; the
 //! midpoint's speed cap too), with `u` constant and `x = v^2` linear in `s` inside it:
 //! all of these are linear in the interval's two end values of `x`. On each half `a_i`
 //! then differs from the straight line between its two checked values by three terms,
@@ -68,9 +68,9 @@
 //!
 //! ## Extra axes
 //! Extra axes ride along with the moves, linear in arc length, in *machine* coordinates:
-//! a `G92 E0` ([`EventKind::ExtraReset`]) changes the offset between programmed and machine
+//! a `G92 E0` ([`crate::path::EventKind::ExtraReset`]) changes the offset between programmed and machine
 //! values, not the position, so the setpoints' extra columns stay continuous. A move of
-//! extra axes only ([`EventKind::ExtraMove`], a slicer's retract; also a zero-length move
+//! extra axes only ([`crate::path::EventKind::ExtraMove`], a slicer's retract; also a zero-length move
 //! that changes them) happens at a stop, X, Y and Z at rest: it takes the time of a
 //! trapezoid over the largest axis change at its rate (the rapid rate when it has none)
 //! and the smallest X/Y/Z acceleration limit ([`ExtraRest`]). Extra axes have no limits
