@@ -136,7 +136,7 @@ impl LengthHistogram {
 /// ```
 /// use ncsmooth::geom::Vec3;
 /// use ncsmooth::path::Toolpath;
-/// use ncsmooth::stats::{PathStats, PathStatsBuilder};
+/// use ncsmooth::{PathStats, PathStatsBuilder};
 ///
 /// let square = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::ZERO];
 /// let tp = Toolpath::from_polyline(&square, Some(10.0));
