@@ -331,7 +331,6 @@ fn check_plan_outputs(a: &PlanArgs) -> Result<()> {
     .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
     .collect();
     let input = (a.file != BUILTIN_BUTTERFLY).then_some(a.file.as_str());
-    io::check_outputs(input, &outputs)?;
     io::check_outputs(input, &outputs)
 }
 
