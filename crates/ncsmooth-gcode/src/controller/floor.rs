@@ -1,11 +1,11 @@
 //! The block floor: blocks shorter than a controller should be given lifted against the
 //! programmed path, within its tolerance ([`lift_short_blocks`]), with the spatial grid
-//! over the programmed polyline its queries use (`SegGrid`).
+//! over the programmed polyline its queries use ([`SegmentGrid`]).
 
 use crate::controller::linuxcnc::blend::{vertex_room, VertexRoom, ROOM_SAMPLES};
 use crate::controller::linuxcnc::CornerBlend;
 use crate::polyline::seg_dist;
-use ncsmooth::geom::Vec3;
+use ncsmooth::geom::{segment_meets_box, SegmentGrid, Vec3};
 
 /// The programmed path of the moves being written and the tolerance left for the written
 /// blocks against it: blocks shorter than `min_block_mm` are lifted where the program
@@ -19,7 +19,7 @@ pub(crate) struct Floor {
     /// Shortest block the controller should be given (mm).
     pub min_block_mm: f64,
     /// The grid over `program`, built when a first short block needs it.
-    pub grid: std::cell::OnceCell<SegGrid>,
+    pub grid: std::cell::OnceCell<SegmentGrid>,
     /// LinuxCNC: short blocks are lifted only to the programmed corner, which gets a `P`
     /// of its own.
     pub corner: Option<CornerBlend>,
@@ -91,9 +91,10 @@ impl ProgrammedPath<'_> {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Starts of the programmed segments whose box comes within `margin` of the box of
-    /// `a`-`b` (the grid's candidates, or all segments when it has none to give).
-    fn near(&self, grid: &SegGrid, a: Vec3, b: Vec3, margin: f64, out: &mut Vec<usize>) {
+    /// Starts of the programmed segments that come within `margin` (on every axis) of the
+    /// box of `a`-`b`: the grid's candidates (or all segments when it has none to give)
+    /// that meet the padded box.
+    fn near(&self, grid: &SegmentGrid, a: Vec3, b: Vec3, margin: f64, out: &mut Vec<usize>) {
         let pad = Vec3::new(margin, margin, margin);
         let (lo, hi) = (a.min(b) - pad, a.max(b) + pad);
         if !grid.candidates(lo, hi, out) {
@@ -101,15 +102,12 @@ impl ProgrammedPath<'_> {
             out.extend(0..self.points.len().saturating_sub(1));
         }
         let pts = self.points;
-        out.retain(|&k| {
-            let (plo, phi) = (pts[k].min(pts[k + 1]), pts[k].max(pts[k + 1]));
-            plo.min(hi) == plo && phi.max(lo) == phi
-        });
+        out.retain(|&k| segment_meets_box(pts[k], pts[k + 1], lo, hi));
     }
 
     /// Whether every point of the segment `a`-`b` lies within the tolerance of the
     /// programmed path.
-    fn covers(&self, grid: &SegGrid, a: Vec3, b: Vec3, scratch: &mut Vec<usize>) -> bool {
+    fn covers(&self, grid: &SegmentGrid, a: Vec3, b: Vec3, scratch: &mut Vec<usize>) -> bool {
         let step = self.tol_mm / SAMPLES_PER_TOL;
         let within = self.tol_mm - 0.5 * step;
         self.near(grid, a, b, self.tol_mm, scratch);
@@ -118,7 +116,7 @@ impl ProgrammedPath<'_> {
     }
 
     /// The programmed vertices inside the box `lo`-`hi`, appended to `out`.
-    fn vertices_in(&self, grid: &SegGrid, lo: Vec3, hi: Vec3, out: &mut Vec<Vec3>) {
+    fn vertices_in(&self, grid: &SegmentGrid, lo: Vec3, hi: Vec3, out: &mut Vec<Vec3>) {
         let inside = |v: &Vec3| v.min(lo) == lo && v.max(hi) == hi;
         match self.vertex_candidates(grid, lo, hi) {
             Some(ks) => out.extend(ks.into_iter().map(|k| self.points[k]).filter(inside)),
@@ -129,7 +127,7 @@ impl ProgrammedPath<'_> {
     /// Indices of the programmed vertices that may lie in the box `lo`-`hi` (the ends of
     /// the grid's candidate segments), sorted and unique; `None` when the grid has none
     /// to give and every vertex is a candidate.
-    fn vertex_candidates(&self, grid: &SegGrid, lo: Vec3, hi: Vec3) -> Option<Vec<usize>> {
+    fn vertex_candidates(&self, grid: &SegmentGrid, lo: Vec3, hi: Vec3) -> Option<Vec<usize>> {
         let mut segs = Vec::new();
         if self.points.len() < 2 || !grid.candidates(lo, hi, &mut segs) {
             return None;
@@ -143,9 +141,9 @@ impl ProgrammedPath<'_> {
     /// The programmed vertex nearest to `p`: the grid's candidates in boxes of growing
     /// size, until the nearest one found lies within the box's half-width (any nearer
     /// vertex would be in the box).
-    fn nearest_vertex(&self, grid: &SegGrid, p: Vec3) -> Option<Vec3> {
+    fn nearest_vertex(&self, grid: &SegmentGrid, p: Vec3) -> Option<Vec3> {
         let by_dist = |a: &Vec3, b: &Vec3| a.dist(p).total_cmp(&b.dist(p));
-        let mut r = grid.cell;
+        let mut r = grid.cell_mm();
         loop {
             let pad = Vec3::new(r, r, r);
             let Some(ks) = self.vertex_candidates(grid, p - pad, p + pad) else {
@@ -160,94 +158,16 @@ impl ProgrammedPath<'_> {
     }
 }
 
-/// Largest number of grid cells a programmed segment is entered in; a longer one is a
-/// candidate of every query ([`SegGrid`]).
-const GRID_SEGMENT_CELLS: i64 = 64;
-
-/// Largest number of grid cells a query looks at; a larger box scans every segment.
-const GRID_QUERY_CELLS: i64 = 4096;
-
-/// Uniform grid over a program's segments for [`lift_short_blocks`]: its queries (the
-/// segments near a written block, the vertices near a replacement, the vertex nearest a
-/// block) were linear scans of the run's programmed polyline, and a stepper dialect on
-/// linuxcnc_stellabee1 (one run of most of its 169 k lines) took over ten minutes.
-/// Queries return a superset of the segments whose boxes meet the query box; the callers
-/// apply the exact tests.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub(crate) struct SegGrid {
-    /// Cell size (mm): four tolerances or the mean segment length, the larger.
-    cell: f64,
-    cells: std::collections::HashMap<[i64; 3], Vec<usize>>,
-    /// Segments spanning more than [`GRID_SEGMENT_CELLS`] cells.
-    wide: Vec<usize>,
-}
-
-impl SegGrid {
-    fn new(points: &[Vec3], tol_mm: f64) -> SegGrid {
-        let n = points.len().saturating_sub(1);
-        let total: f64 = points.windows(2).map(|w| w[0].dist(w[1])).sum();
-        let mean = if n > 0 { total / n as f64 } else { 0.0 };
-        let cell = (4.0 * tol_mm).max(mean).max(1e-6);
-        let mut grid = SegGrid {
-            cell,
-            cells: std::collections::HashMap::new(),
-            wide: Vec::new(),
-        };
-        for (k, w) in points.windows(2).enumerate() {
-            let (a, b) = (grid.key(w[0].min(w[1])), grid.key(w[0].max(w[1])));
-            if Self::count(a, b) > GRID_SEGMENT_CELLS {
-                grid.wide.push(k);
-                continue;
-            }
-            for x in a[0]..=b[0] {
-                for y in a[1]..=b[1] {
-                    for z in a[2]..=b[2] {
-                        grid.cells.entry([x, y, z]).or_default().push(k);
-                    }
-                }
-            }
-        }
-        grid
-    }
-
-    fn key(&self, p: Vec3) -> [i64; 3] {
-        let k = |v: f64| (v / self.cell).floor() as i64;
-        [k(p.x), k(p.y), k(p.z)]
-    }
-
-    /// Cells of the box between the keys `a` and `b` (saturating).
-    fn count(a: [i64; 3], b: [i64; 3]) -> i64 {
-        (0..3)
-            .map(|i| b[i].saturating_sub(a[i]).saturating_add(1).max(0))
-            .fold(1i64, |acc, c| acc.saturating_mul(c))
-    }
-
-    /// Candidate segments for the box `lo`-`hi`, sorted and unique, in `out`; `false` when
-    /// the box spans more than [`GRID_QUERY_CELLS`] cells (or is not finite) and the
-    /// caller must scan every segment.
-    fn candidates(&self, lo: Vec3, hi: Vec3, out: &mut Vec<usize>) -> bool {
-        out.clear();
-        if !(lo.is_finite() && hi.is_finite()) {
-            return false;
-        }
-        let (a, b) = (self.key(lo), self.key(hi));
-        if Self::count(a, b) > GRID_QUERY_CELLS {
-            return false;
-        }
-        for x in a[0]..=b[0] {
-            for y in a[1]..=b[1] {
-                for z in a[2]..=b[2] {
-                    if let Some(v) = self.cells.get(&[x, y, z]) {
-                        out.extend_from_slice(v);
-                    }
-                }
-            }
-        }
-        out.extend_from_slice(&self.wide);
-        out.sort_unstable();
-        out.dedup();
-        true
-    }
+/// The grid over a program's segments for [`lift_short_blocks`]' queries (the segments
+/// near a written block, the vertices near a replacement, the vertex nearest a block),
+/// which would otherwise scan the run's whole programmed polyline. Cells are four
+/// tolerances or the mean segment length, the larger.
+fn seg_grid(points: &[Vec3], tol_mm: f64) -> SegmentGrid {
+    let n = points.len().saturating_sub(1);
+    let total: f64 = points.windows(2).map(|w| w[0].dist(w[1])).sum();
+    let mean = if n > 0 { total / n as f64 } else { 0.0 };
+    let cell = (4.0 * tol_mm).max(mean).max(1e-6);
+    SegmentGrid::new(points.windows(2).map(|w| (w[0], w[1])), cell)
 }
 
 /// Distance from `p` to the polyline `pl`.
@@ -275,7 +195,7 @@ fn replacement_fits(
     hi: usize,
     new: Option<Vec3>,
     program: &ProgrammedPath,
-    grid: &SegGrid,
+    grid: &SegmentGrid,
     scratch: &mut Vec<usize>,
 ) -> bool {
     let first = lo.saturating_sub(CHECK_NEIGHBOURS);
@@ -351,8 +271,8 @@ pub(crate) struct Lift {
 impl ProgrammedPath<'_> {
     /// The grid over the programmed segments, for [`ProgrammedPath::max_dist_near`] and
     /// [`ProgrammedPath::vertex_gap`].
-    pub(crate) fn grid(&self) -> SegGrid {
-        SegGrid::new(self.points, self.tol_mm)
+    pub(crate) fn grid(&self) -> SegmentGrid {
+        seg_grid(self.points, self.tol_mm)
     }
 
     /// The largest distance from a programmed vertex within `within` of the segments
@@ -360,7 +280,7 @@ impl ProgrammedPath<'_> {
     /// (0 where there is none).
     pub(crate) fn vertex_gap(
         &self,
-        grid: &SegGrid,
+        grid: &SegmentGrid,
         lines: &[(Vec3, Vec3)],
         others: &[(Vec3, Vec3)],
         within: f64,
@@ -389,7 +309,13 @@ impl ProgrammedPath<'_> {
     /// the largest at `samples + 1` evenly spaced points plus half their spacing (the
     /// distance is 1-Lipschitz); infinite where a point has no programmed segment within
     /// the tolerance.
-    pub(crate) fn max_dist_near(&self, grid: &SegGrid, a: Vec3, b: Vec3, samples: usize) -> f64 {
+    pub(crate) fn max_dist_near(
+        &self,
+        grid: &SegmentGrid,
+        a: Vec3,
+        b: Vec3,
+        samples: usize,
+    ) -> f64 {
         let mut segs = Vec::new();
         self.near(grid, a, b, self.tol_mm, &mut segs);
         let n = samples.max(1);
@@ -409,7 +335,7 @@ pub(crate) fn lift_short_blocks_in(
     pts: &mut Vec<Vec3>,
     min_block_mm: f64,
     program: &ProgrammedPath,
-    grid: &std::cell::OnceCell<SegGrid>,
+    grid: &std::cell::OnceCell<SegmentGrid>,
     round: impl Fn(Vec3) -> Vec3,
     how: &mut Lift,
 ) -> usize {
@@ -427,7 +353,7 @@ pub(crate) fn lift_short_blocks_in(
             continue;
         }
         let n = poly.len();
-        let grid = grid.get_or_init(|| SegGrid::new(program.points, program.tol_mm));
+        let grid = grid.get_or_init(|| seg_grid(program.points, program.tol_mm));
         let mid = (poly[i - 1] + poly[i]) * 0.5;
         let snap = program.nearest_vertex(grid, mid).map(&round);
         // The block from `fixed` through `free`, lengthened to the floor.
@@ -620,7 +546,7 @@ mod tests {
                 pts.push(last + Vec3::new(x, y, z) * (scale * f));
             }
             let prog = ProgrammedPath { points: &pts, tol_mm: 0.01 };
-            let grid = SegGrid::new(&pts, prog.tol_mm);
+            let grid = seg_grid(&pts, prog.tol_mm);
             let c = Vec3::new(q.0, q.1, 0.0) * scale.sqrt();
             let (a, b) = (c, c + Vec3::new(q.2, -q.2, 0.0));
             let mut got = Vec::new();
@@ -628,10 +554,7 @@ mod tests {
             let pad = Vec3::new(0.01, 0.01, 0.01);
             let (lo, hi) = (a.min(b) - pad, a.max(b) + pad);
             let want: Vec<usize> = (0..pts.len() - 1)
-                .filter(|&k| {
-                    let (plo, phi) = (pts[k].min(pts[k + 1]), pts[k].max(pts[k + 1]));
-                    plo.min(hi) == plo && phi.max(lo) == phi
-                })
+                .filter(|&k| segment_meets_box(pts[k], pts[k + 1], lo, hi))
                 .collect();
             prop_assert_eq!(got, want);
             let mut vin = Vec::new();

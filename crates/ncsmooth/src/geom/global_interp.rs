@@ -27,7 +27,7 @@
 //! remove them first), non-finite input or a singular system.
 
 use super::banded::BandedMatrix;
-use super::nurbs::{Nurbs, MAX_DEGREE};
+use super::nurbs::{basis_funs, Nurbs, MAX_DEGREE};
 use super::vec3::Vec3;
 use serde::Serialize;
 
@@ -99,26 +99,6 @@ pub fn averaging_knots_with_ends(params: &[f64], p: usize) -> Vec<f64> {
     k
 }
 
-/// A2.2: the `p + 1` non-zero basis functions at `u` in knot span `span`.
-fn basis_funs(span: usize, u: f64, p: usize, knots: &[f64]) -> [f64; MAX_DEGREE + 1] {
-    let mut out = [0.0; MAX_DEGREE + 1];
-    let mut left = [0.0; MAX_DEGREE + 1];
-    let mut right = [0.0; MAX_DEGREE + 1];
-    out[0] = 1.0;
-    for j in 1..=p {
-        left[j] = u - knots[span + 1 - j];
-        right[j] = knots[span + j] - u;
-        let mut saved = 0.0;
-        for r in 0..j {
-            let temp = out[r] / (right[r + 1] + left[j - r]);
-            out[r] = saved + right[r + 1] * temp;
-            saved = left[j - r] * temp;
-        }
-        out[j] = saved;
-    }
-    out
-}
-
 /// One row of the collocation system: first column and up to `p + 1` coefficients.
 struct Row {
     col0: usize,
@@ -164,7 +144,7 @@ fn basis_rows(params: &[f64], p: usize, knots: &[f64], n_ctrl: usize) -> Vec<Row
         rows.push(Row {
             col0: span - p,
             len: p + 1,
-            coef: basis_funs(span, u, p, knots),
+            coef: basis_funs(knots, span, u, p),
         });
     }
     rows

@@ -49,6 +49,30 @@ pub struct Nurbs {
     knots: Vec<f64>,
 }
 
+/// NURBS Book A2.2: the `p + 1` non-zero degree-`p` basis functions at `u` in knot span
+/// `span` (`knots[span] <= u < knots[span + 1]`, `p <= MAX_DEGREE`); entry `j` is
+/// `N_(span-p+j)`. They are non-negative and sum to one. The one copy of A2.2: the global
+/// interpolation and the band fit call it; [`Nurbs::ders_basis`] (A2.3) builds the same
+/// triangle with the same arithmetic, so its zeroth row equals this bit for bit.
+pub(crate) fn basis_funs(knots: &[f64], span: usize, u: f64, p: usize) -> [f64; MAX_DEGREE + 1] {
+    let mut out = [0.0; MAX_DEGREE + 1];
+    let mut left = [0.0; MAX_DEGREE + 1];
+    let mut right = [0.0; MAX_DEGREE + 1];
+    out[0] = 1.0;
+    for j in 1..=p {
+        left[j] = u - knots[span + 1 - j];
+        right[j] = knots[span + j] - u;
+        let mut saved = 0.0;
+        for r in 0..j {
+            let temp = out[r] / (right[r + 1] + left[j - r]);
+            out[r] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        out[j] = saved;
+    }
+    out
+}
+
 impl Nurbs {
     /// Builds a curve, checking that `knots.len() == ctrl.len() + degree + 1`, the knots are
     /// finite and non-decreasing and clamped (first and last `degree + 1` equal), the
@@ -711,6 +735,23 @@ mod tests {
         let t = c.inv_arclen(std::f64::consts::FRAC_PI_4, 1e-12);
         let p = c.eval(t);
         assert_abs_diff_eq!(p.x, p.y, epsilon = 1e-10);
+    }
+
+    #[test]
+    fn a2_2_is_the_zeroth_row_of_a2_3_and_a_partition_of_unity() {
+        let c = wavy();
+        for i in 0..=200 {
+            let u = i as f64 / 200.0;
+            let span = c.find_span(u);
+            let n = basis_funs(c.knots(), span, u, c.degree());
+            let ders = c.ders_basis(span, u, 2);
+            for j in 0..=c.degree() {
+                assert_eq!(n[j].to_bits(), ders[0][j].to_bits(), "u={u} j={j}");
+                assert!(n[j] >= 0.0);
+            }
+            let sum: f64 = n.iter().sum();
+            assert_abs_diff_eq!(sum, 1.0, epsilon = 1e-14);
+        }
     }
 
     #[test]

@@ -57,7 +57,7 @@ use crate::feed::grid::MoveRef;
 use crate::feed::{jerk::planned_jerk, planned_acc, planned_vaxis, PathIndex, PlanOptions};
 use std::rc::Rc;
 
-use crate::geom::step_arclen::STEP_ARCLEN_ACCURACY_MM;
+use crate::geom::STEP_ARCLEN_ACCURACY_MM;
 use crate::geom::{
     arclen_gk7, ParamCurve, ParamCurveDeriv, PreparedNurbs, PreparedTrig, Segment, Vec3,
 };

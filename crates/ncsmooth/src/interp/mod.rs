@@ -80,11 +80,11 @@ pub use sink::{FnSink, Measured, NullSink, PrintedRow, SetpointSink};
 use crate::feed::grid::MoveRef;
 use crate::feed::window::Reader;
 use crate::feed::PathIndex;
-pub use crate::geom::step_arclen::{step_arclen, STEP_ARCLEN_ACCURACY_MM};
 use crate::geom::{
     arclen_adaptive, arclen_gk7, curvature_vec_from, CubicBez, ParamCurve, ParamCurveDeriv,
     PreparedNurbs, PreparedTrig, Segment, Vec3,
 };
+pub use crate::geom::{step_arclen, STEP_ARCLEN_ACCURACY_MM};
 use crate::path::ExtraAxes;
 use serde::Serialize;
 

@@ -80,7 +80,7 @@
 
 use super::band_time::{time_shape, TimeShapeOptions};
 use super::screen::ScreenOptions;
-use crate::geom::{Line, Nurbs, ParamCurveNearest, Segment, Vec3};
+use crate::geom::{basis_funs, Line, Nurbs, ParamCurveNearest, Segment, SymBanded, Vec3, BAND};
 use crate::verify::{deviation_segments, Deviation};
 
 /// Interior samples per knot span for the curve-to-chord constraints (the dense check
@@ -316,99 +316,6 @@ pub struct BandFit {
 }
 
 // ---------------------------------------------------------------------------------------
-// Banded symmetric matrices (half-bandwidth 3)
-
-/// Half-bandwidth of the cubic B-spline's quadratic forms.
-const BAND: usize = 3;
-
-/// A symmetric matrix with half-bandwidth [`BAND`]: `a[i][k] = A[i][i - BAND + k]`.
-#[derive(Clone, Debug)]
-struct Sym {
-    a: Vec<[f64; BAND + 1]>,
-}
-
-impl Sym {
-    fn zeros(n: usize) -> Sym {
-        Sym {
-            a: vec![[0.0; BAND + 1]; n],
-        }
-    }
-    fn n(&self) -> usize {
-        self.a.len()
-    }
-    /// Adds `v` to `A[i][j]` (and so to `A[j][i]`), `|i - j| <= BAND`.
-    fn add(&mut self, i: usize, j: usize, v: f64) {
-        let (i, j) = if i >= j { (i, j) } else { (j, i) };
-        self.a[i][BAND + j - i] += v;
-    }
-    fn get(&self, i: usize, j: usize) -> f64 {
-        let (i, j) = if i >= j { (i, j) } else { (j, i) };
-        if i - j > BAND {
-            0.0
-        } else {
-            self.a[i][BAND + j - i]
-        }
-    }
-    fn set(&mut self, i: usize, j: usize, v: f64) {
-        let (i, j) = if i >= j { (i, j) } else { (j, i) };
-        self.a[i][BAND + j - i] = v;
-    }
-    /// Adds the symmetric part of `s f g^T` for forms over `k .. k + 3`.
-    fn add_outer(&mut self, k: usize, f: &[f64; 4], g: &[f64; 4], s: f64) {
-        for x in 0..4 {
-            for y in 0..=x {
-                let v = if x == y {
-                    s * f[x] * g[y]
-                } else {
-                    0.5 * s * (f[x] * g[y] + f[y] * g[x])
-                };
-                self.add(k + x, k + y, v);
-            }
-        }
-    }
-    /// Cholesky factor `L` (same storage), `None` when not positive definite.
-    fn cholesky(&self) -> Option<Sym> {
-        let n = self.n();
-        let mut l = Sym::zeros(n);
-        for i in 0..n {
-            for j in i.saturating_sub(BAND)..=i {
-                let mut s = self.get(i, j);
-                for k in i.saturating_sub(BAND)..j {
-                    s -= l.get(i, k) * l.get(j, k);
-                }
-                if i == j {
-                    if !(s > 0.0 && s.is_finite()) {
-                        return None;
-                    }
-                    l.set(i, i, s.sqrt());
-                } else {
-                    l.set(i, j, s / l.get(j, j));
-                }
-            }
-        }
-        Some(l)
-    }
-    /// Solves `L L^T x = b` in place, `self` being `L`.
-    fn chol_solve(&self, b: &mut [Vec3]) {
-        let n = self.n();
-        for i in 0..n {
-            let mut s = b[i];
-            for k in i.saturating_sub(BAND)..i {
-                s -= b[k] * self.get(i, k);
-            }
-            b[i] = s / self.get(i, i);
-        }
-        for i in (0..n).rev() {
-            let mut s = b[i];
-            for k in i + 1..(i + BAND + 1).min(n) {
-                s -= b[k] * self.get(k, i);
-            }
-            b[i] = s / self.get(i, i);
-        }
-    }
-}
-
-// ---------------------------------------------------------------------------------------
 // The spline
 
 /// The penalty forms of one span `[t_s, t_(s+1)]`: `C''` at both ends and `C'''`, as
@@ -437,23 +344,10 @@ fn span_forms(knots: &[f64], s: usize) -> ([f64; 4], [f64; 4], [f64; 4]) {
     (d2a, d2b, d3)
 }
 
-/// The cubic basis functions at `u` in span `s` (NURBS Book A2.2).
+/// The cubic basis functions at `u` in span `s` (NURBS Book A2.2, [`basis_funs`]).
 fn basis(knots: &[f64], s: usize, u: f64) -> [f64; 4] {
-    let mut n = [0.0; 4];
-    let (mut left, mut right) = ([0.0; 4], [0.0; 4]);
-    n[0] = 1.0;
-    for j in 1..=3 {
-        left[j] = u - knots[s + 1 - j];
-        right[j] = knots[s + j] - u;
-        let mut saved = 0.0;
-        for r in 0..j {
-            let temp = n[r] / (right[r + 1] + left[j - r]);
-            n[r] = saved + right[r + 1] * temp;
-            saved = left[j - r] * temp;
-        }
-        n[j] = saved;
-    }
-    n
+    let n = basis_funs(knots, s, u, 3);
+    [n[0], n[1], n[2], n[3]]
 }
 
 /// Chord-length parameters of `pts` (mm), `None` for a zero-length or non-finite chord.
@@ -518,7 +412,7 @@ struct Qp {
     knots: Vec<f64>,
     /// Fixed control points.
     fixed: Vec<Option<Vec3>>,
-    penalty: Sym,
+    penalty: SymBanded,
     rows: Vec<Row>,
 }
 
@@ -556,7 +450,7 @@ impl Qp {
             return None;
         }
         let w2 = 1.0 / (len_mm * len_mm);
-        let mut penalty = Sym::zeros(m);
+        let mut penalty = SymBanded::zeros(m);
         for s in 3..m {
             let h = knots[s + 1] - knots[s];
             let (d2a, d2b, d3) = span_forms(&knots, s);
@@ -632,7 +526,7 @@ impl Qp {
     /// The factor of `P + rho A^T A` with the fixed control points eliminated, and the
     /// right-hand side's constant part (the fixed columns moved over; the fixed values on
     /// their own rows).
-    fn factor(&self, rho: f64) -> Option<(Sym, Vec<Vec3>)> {
+    fn factor(&self, rho: f64) -> Option<(SymBanded, Vec<Vec3>)> {
         let m = self.m();
         let mut k = self.penalty.clone();
         for r in &self.rows {

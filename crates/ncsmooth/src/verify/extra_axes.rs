@@ -8,7 +8,7 @@
 //! run written without its `E` words: a printer moving without extruding) is caught
 //! there: the extrusion of the run before the next retract is short by what it lost.
 
-use crate::geom::{Flatten, ParamCurve, Vec3};
+use crate::geom::{Flatten, ParamCurve, SegmentGrid, Vec3};
 use crate::path::{Block, EventKind, ExtraAxes, Toolpath, E_AXIS};
 use serde::Serialize;
 
@@ -294,7 +294,11 @@ pub fn extrusion_along_path(
         return None;
     }
     let pieces = e_pieces(program, tol_mm * ALONG_FLATTEN_SHARE);
-    let grid = PieceGrid::new(&pieces, tol_mm);
+    let grid = SegmentGrid::new(
+        pieces.iter().map(|p| (p.a, p.b)),
+        (2.0 * tol_mm).max(ALONG_MIN_CELL_MM),
+    );
+    let pad = Vec3::new(tol_mm, tol_mm, tol_mm);
     let mut out = ExtrusionAlongPath {
         max_e_mm: 0.0,
         line: 0,
@@ -316,7 +320,9 @@ pub fn extrusion_along_path(
             continue;
         };
         let q = m.segment.end();
-        grid.near(q, &mut near);
+        if !grid.candidates(q - pad, q + pad, &mut near) {
+            near.extend(0..pieces.len());
+        }
         let range = near
             .iter()
             .map(|&k| &pieces[k])
@@ -338,58 +344,7 @@ pub fn extrusion_along_path(
     (out.points > 0).then_some(out)
 }
 
-/// A uniform grid over [`EPiece`]s: each piece is listed in the cells of points along it
-/// at most a cell apart, so a piece within `tol` of a point has one of them within
-/// `tol + cell / 2`, in the point's cell or a neighbour when cells are at least that.
-struct PieceGrid {
-    cell: f64,
-    cells: std::collections::HashMap<[i64; 3], Vec<usize>>,
-}
-
-impl PieceGrid {
-    fn new(pieces: &[EPiece], tol: f64) -> PieceGrid {
-        let cell = (2.0 * tol).max(ALONG_MIN_CELL_MM);
-        let mut g = PieceGrid {
-            cell,
-            cells: std::collections::HashMap::new(),
-        };
-        for (k, p) in pieces.iter().enumerate() {
-            let n = (p.a.dist(p.b) / cell).ceil().max(1.0) as usize;
-            let mut last = None;
-            for i in 0..=n {
-                let key = g.key(p.a + (p.b - p.a) * (i as f64 / n as f64));
-                if last != Some(key) {
-                    g.cells.entry(key).or_default().push(k);
-                    last = Some(key);
-                }
-            }
-        }
-        g
-    }
-
-    fn key(&self, p: Vec3) -> [i64; 3] {
-        [p.x, p.y, p.z].map(|v| (v / self.cell).floor() as i64)
-    }
-
-    /// The pieces listed in `q`'s cell and its 26 neighbours (each once).
-    fn near(&self, q: Vec3, out: &mut Vec<usize>) {
-        out.clear();
-        let c = self.key(q);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    if let Some(v) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
-                        out.extend_from_slice(v);
-                    }
-                }
-            }
-        }
-        out.sort_unstable();
-        out.dedup();
-    }
-}
-
-/// Smallest cell of [`PieceGrid`] (mm): a finer grid lists long moves in too many cells.
+/// Smallest cell of the pieces' grid (mm): a finer grid lists long moves in too many cells.
 const ALONG_MIN_CELL_MM: f64 = 0.5;
 
 #[cfg(test)]

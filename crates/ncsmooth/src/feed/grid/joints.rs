@@ -93,7 +93,7 @@ pub(super) fn end_rate(seg: &Segment, at_end: bool) -> Vec3 {
     } else {
         (0.0, RATE_PROBE_PARAM)
     };
-    let ds = crate::geom::step_arclen::step_arclen(seg, a, b);
+    let ds = crate::geom::step_arclen(seg, a, b);
     if ds > 0.0 {
         (curvature_at(seg, b) - curvature_at(seg, a)) / ds
     } else {
