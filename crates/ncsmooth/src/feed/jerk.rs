@@ -19,10 +19,10 @@
 //! 1. The trapezoid planner ([`super::lookahead`]) plans `s(t)` with a *scalar* tangential
 //!    acceleration limit `|s''| <= U` ([`JerkCaps::u_max_mm_s2`]), `U` at most
 //!    `u_share min_i A_i` (planning factor applied; [`JerkSplit`], by default
-//!    `1 - `[`CURVATURE_ACC_SHARE`]), and the curvature limit
+//!    `1 - ``CURVATURE_ACC_SHARE`), and the curvature limit
 //!    `U |T_i| + v^2 |K_i| <= A_i` at each point. `U` also sets the window of point 2,
 //!    `W = 2 U / J_t` with `J_t = jt_share min_i J_i` (by default
-//!    [`TANGENTIAL_JERK_SHARE`]), and a rest-to-rest ramp to the top speed `V` costs
+//!    `TANGENTIAL_JERK_SHARE`), and a rest-to-rest ramp to the top speed `V` costs
 //!    `V / U` in the plan plus `W` in the filter; `V / U + 2 U / J_t` is least at
 //!    `U* = sqrt(V J_t / 2)`. So `U = min(u_share A, U*)`, with `V` the larger of the
 //!    feed and rapid rates. At the usual settings (50 mm/s, 500 mm/s^2, 5000 mm/s^3)
@@ -48,8 +48,8 @@
 //!    position of its two neighbouring intervals, so the speed anywhere inside an
 //!    interval (linear in `v^2` on curves, at most the inside cap on lines) holds the
 //!    dilated cap of every position in it. Lines are cut in jerk mode (every
-//!    [`super::grid::MAX_CURVE_DS_MM`], and geometrically finer towards their ends from
-//!    [`LINE_CUT_MIN_MM`]) so that a low cap at a corner does not slow a whole line. A
+//!    `MAX_CURVE_DS_MM`, and geometrically finer towards their ends from
+//!    `LINE_CUT_MIN_MM`) so that a low cap at a corner does not slow a whole line. A
 //!    low cap thus spreads only
 //!    over the short distance covered at its own low speed. Then the filtered motion
 //!    holds every cap at its own position: feed, per-axis velocity, curvature
@@ -103,7 +103,7 @@
 //! change takes longer; a small `J_t` leaves the geometric jerk terms more room but
 //! lengthens the window. No one split is fastest on every path and every set of limits
 //! (`docs/benchmarks/2026-12-02.md`). So unless [`super::PlanOptions::jerk_split`] gives one, the planning run
-//! ([`crate::interp::execute`]) plans the path with each of [`SPLIT_CANDIDATES`] and
+//! ([`crate::interp::execute`]) plans the path with each of `SPLIT_CANDIDATES` and
 //! a short local search around the best ([`fastest_split`]: planning passes only, no
 //! setpoints; a program longer than [`SPLIT_SEARCH_MAX_BLOCKS`] is judged by its first
 //! blocks) and keeps the shortest plan. Choosing among plans that each hold every limit
@@ -111,11 +111,11 @@
 //!
 //! ## Finite-difference noise
 //! Positions are printed to 1e-9 mm and the interpolator lands on the planned arc length
-//! to [`crate::interp::ARC_CORRECTION_TOL_MM`]: a third difference of such errors is up to
-//! [`JERK_NOISE_MM`]`/T^3` (8 mm/s^3 at T = 1 ms, 1 mm/s^3 at T = 2 ms). The jerk limits
+//! to `ARC_CORRECTION_TOL_MM`: a third difference of such errors is up to
+//! `JERK_NOISE_MM``/T^3` (8 mm/s^3 at T = 1 ms, 1 mm/s^3 at T = 2 ms). The jerk limits
 //! are planned at `0.99 J - JERK_NOISE_MM / T^3` ([`planned_jerk`]), so the measured
 //! finite-difference jerk holds the limit itself, not only up to the noise. A limit for
-//! which that leaves less than [`super::MIN_LIMIT_FRACTION`] of `J` (below
+//! which that leaves less than `MIN_LIMIT_FRACTION` of `J` (below
 //! [`min_jerk_mm_s3`], 16.3 mm/s^3 at 1 ms) is refused by
 //! [`super::PlanOptions::validate`]: the printed setpoints cannot show it held.
 //!
@@ -147,18 +147,18 @@ use super::{plan_stream, PathIndex, PlanEvent, PlanOptions};
 /// Share of each axis's acceleration limit given to the curvature term `v^2 K_i` by the
 /// default split ([`JerkSplit::DEFAULT`]); the rest, `1 - share`, is the tangential
 /// limit `U`.
-pub const CURVATURE_ACC_SHARE: f64 = 0.7;
+pub(crate) const CURVATURE_ACC_SHARE: f64 = 0.7;
 /// Share of each jerk limit for the tangential term `s''' T_i` in the default split.
-pub const TANGENTIAL_JERK_SHARE: f64 = 0.5;
+pub(crate) const TANGENTIAL_JERK_SHARE: f64 = 0.5;
 /// Fraction of a step in acceleration that shows as a change between two consecutive
 /// finite-difference accelerations (worst case, see the module doc).
-pub const FD_STEP_FRACTION: f64 = 0.75;
+pub(crate) const FD_STEP_FRACTION: f64 = 0.75;
 /// Position error (mm) whose third difference is the finite-difference jerk noise:
 /// printing (4 x 0.5e-9 mm worst case with weights 1, 3, 3, 1 summing to 8 half-units)
 /// plus the interpolator's arc-length tolerance.
-pub const JERK_NOISE_MM: f64 = 8e-9;
+pub(crate) const JERK_NOISE_MM: f64 = 8e-9;
 /// Planning factor of the jerk limits before the noise allowance.
-pub const JERK_PLANNING_FACTOR: f64 = 0.99;
+pub(crate) const JERK_PLANNING_FACTOR: f64 = 0.99;
 
 /// The jerk limit `j` (mm/s^3) as planned at period `period_s` (s): the planning factor
 /// and the finite-difference noise deducted (see the module doc).
@@ -167,7 +167,7 @@ pub fn planned_jerk(j: f64, period_s: f64) -> f64 {
 }
 
 /// Smallest jerk limit (mm/s^3) held at period `period_s`: below it [`planned_jerk`] would
-/// be less than [`super::MIN_LIMIT_FRACTION`] of the limit.
+/// be less than `MIN_LIMIT_FRACTION` of the limit.
 pub fn min_jerk_mm_s3(period_s: f64) -> f64 {
     JERK_NOISE_MM / period_s.powi(3) / (JERK_PLANNING_FACTOR - super::MIN_LIMIT_FRACTION)
 }
@@ -187,7 +187,7 @@ pub struct JerkSplit {
 
 impl JerkSplit {
     /// The fixed split of earlier versions.
-    pub const DEFAULT: JerkSplit = JerkSplit {
+    pub(crate) const DEFAULT: JerkSplit = JerkSplit {
         u_share: 1.0 - CURVATURE_ACC_SHARE,
         jt_share: TANGENTIAL_JERK_SHARE,
     };
@@ -213,7 +213,7 @@ pub struct JerkCaps {
 }
 
 impl JerkCaps {
-    /// Jerk caps from the user's limits with the default split ([`JerkSplit::DEFAULT`]);
+    /// Jerk caps from the user's limits with the default split (`JerkSplit::DEFAULT`);
     /// see [`JerkCaps::with_split`].
     pub fn new(acc: [f64; 3], jerk: [f64; 3], period_s: f64, v_top: f64) -> JerkCaps {
         JerkCaps::with_split(acc, jerk, period_s, v_top, JerkSplit::DEFAULT)
@@ -223,7 +223,7 @@ impl JerkCaps {
     /// [`super::planned_acc`]), jerk `jerk` (valid at `period_s`, see
     /// [`super::PlanOptions::validate`]), period `period_s`, the top speed `v_top`
     /// (the larger of the feed and rapid rates, mm/s) and the split of the limits (an
-    /// invalid split is taken as [`JerkSplit::DEFAULT`]).
+    /// invalid split is taken as `JerkSplit::DEFAULT`).
     /// `J_t = jt_share min_i J_i`; `U = min(u_share min_i A_i, U*)` with
     /// `U* = sqrt(v_top J_t / 2)` (point 1 of the module doc); `W = 2 U / J_t`.
     pub fn with_split(
@@ -351,7 +351,7 @@ impl JerkCaps {
 /// the speed-dependent jerk terms. Measured on butterfly_1000 (nurbs, tol 0.1 mm,
 /// 200 mm/s, 3000 mm/s^2, 60000 mm/s^3) the cycle time is least near `U` = 0.12 and
 /// `J_t` = 0.55 of the limits.
-pub const SPLIT_CANDIDATES: [JerkSplit; 6] = [
+pub(crate) const SPLIT_CANDIDATES: [JerkSplit; 6] = [
     JerkSplit::DEFAULT,
     JerkSplit {
         u_share: 0.07,
@@ -401,18 +401,18 @@ pub fn planned_duration(path: &Toolpath, opts: &PlanOptions) -> f64 {
 /// Steps of the local search of [`fastest_split`] around the best candidate: the factor
 /// on `u_share` (and its inverse) and the change of `jt_share`, one round each, halving
 /// (four rounds rather than two: 0 to 0.9 % shorter cycles on butterfly_1000 and crown).
-pub const SPLIT_REFINE_STEPS: [(f64, f64); 4] =
+pub(crate) const SPLIT_REFINE_STEPS: [(f64, f64); 4] =
     [(0.7, 0.1), (0.85, 0.05), (0.92, 0.025), (0.96, 0.0125)];
 /// Most program blocks [`fastest_split`] plans with: a longer program is judged by its
 /// first blocks, so that the search costs at most 22 planning passes of this many
 /// blocks, whatever the program's length.
 pub const SPLIT_SEARCH_MAX_BLOCKS: usize = 8192;
 /// Range of the shares the local search of [`fastest_split`] keeps to.
-pub const SPLIT_SHARE_RANGE: (f64, f64) = (0.02, 0.9);
+pub(crate) const SPLIT_SHARE_RANGE: (f64, f64) = (0.02, 0.9);
 
 /// The split whose plan of `path` under `opts` (valid, with a jerk limit) is the shortest
-/// ([`planned_duration`]): the best of [`SPLIT_CANDIDATES`], then a local search around
-/// it ([`SPLIT_REFINE_STEPS`]: each round tries `u_share` times and divided by the
+/// ([`planned_duration`]): the best of `SPLIT_CANDIDATES`, then a local search around
+/// it (`SPLIT_REFINE_STEPS`: each round tries `u_share` times and divided by the
 /// factor and `jt_share` plus and minus the step, and moves to the best if it is
 /// shorter). The default without a jerk limit. Every split in `(0, 1)` holds every limit
 /// (module doc), so choosing among them by the plan's duration keeps the proof; each
@@ -479,7 +479,7 @@ pub fn fastest_split(path: &Toolpath, opts: &PlanOptions) -> JerkSplit {
 const SPEED_CAP_BISECTIONS: usize = 60;
 
 /// Shortest line piece (mm) at a line's ends in jerk mode; pieces double from there.
-pub const LINE_CUT_MIN_MM: f64 = 1e-3;
+pub(crate) const LINE_CUT_MIN_MM: f64 = 1e-3;
 
 /// Lines shorter than this many [`LINE_CUT_MIN_MM`] get no geometric cuts at their ends.
 const MIN_GEOMETRIC_CUT_LEN: f64 = 16.0;

@@ -7,10 +7,10 @@ use crate::geom::Vec3;
 
 /// Below this magnitude a tangent or curvature component does not constrain its axis
 /// (a component of 1e-12 on a 1 m/s feed is 1e-9 mm/s).
-pub const NEGLIGIBLE: f64 = 1e-12;
+pub(crate) const NEGLIGIBLE: f64 = 1e-12;
 
 /// The limits as the planner uses them (accelerations already scaled by
-/// [`super::ACC_PLANNING_FACTOR`]).
+/// `ACC_PLANNING_FACTOR`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Caps {
     /// Per-axis acceleration (mm/s^2).

@@ -2,11 +2,11 @@
 //! [`crate::feed`] doc for why a committed prefix is final), producing the speed profile
 //! as a stream of constant-acceleration pieces ([`ProfilePiece`]) and stops.
 //!
-//! On programs of at least [`GRID_THREAD_MIN_MOVES`] moves (and more than one core) the
+//! On programs of at least `GRID_THREAD_MIN_MOVES` moves (and more than one core) the
 //! grid of the moves ahead is computed on a second thread ([`GridGen::produce`]) while
 //! this one runs the passes: each move's grid depends on that move alone, so the plan is
 //! the same bit for bit (tested), and the producer runs at most
-//! [`super::grid::GRID_QUEUE_BATCHES`] batches ahead.
+//! `GRID_QUEUE_BATCHES` batches ahead.
 
 use super::grid::{GridGen, GridPoint, PathIndex};
 use super::limits::Interval;
@@ -18,7 +18,7 @@ use std::time::Instant;
 
 /// Grid points a window starts with; a window grows (doubles) when no point in it is
 /// free of the assumed stop at its end.
-pub const WINDOW_POINTS: usize = 4096;
+pub(crate) const WINDOW_POINTS: usize = 4096;
 
 /// A piece of the profile with constant tangential acceleration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -303,7 +303,7 @@ pub fn plan_stream(
 }
 
 /// Fewest moves for which [`plan_stream`] computes the grid on a thread of its own.
-pub const GRID_THREAD_MIN_MOVES: usize = 4096;
+pub(crate) const GRID_THREAD_MIN_MOVES: usize = 4096;
 
 /// The forward pass over the first `commit` intervals from `x0` under the backward limits
 /// `bwd`: the speeds at the points into `xf`, the profile pieces into `out`. In jerk mode

@@ -54,32 +54,32 @@
 //! do not oscillate.
 //!
 //! ## Choices where the papers are loose
-//! * The acceleration limits are planned at [`ACC_PLANNING_FACTOR`] of the given value, a
+//! * The acceleration limits are planned at `ACC_PLANNING_FACTOR` of the given value, a
 //!   1 % reserve for what happens between the grid checks and for the interpolator's
 //!   sub-micrometre position errors (both show up in finite differences); the per-axis
-//!   velocity limits likewise at [`VAXIS_PLANNING_FACTOR`].
+//!   velocity limits likewise at `VAXIS_PLANNING_FACTOR`.
 //!
 //! ## Limits the setpoints can show ([`PlanOptions::validate`])
 //! The limits are measured on the setpoints as printed (positions to
-//! [`PRINT_RESOLUTION_MM`]) by finite differences at the period `T`, and must hold there
+//! `PRINT_RESOLUTION_MM`) by finite differences at the period `T`, and must hold there
 //! without any allowance ([`crate::interp::PlanReport::limits_held`]). Rounding and the
 //! interpolator's arc-length landing put errors of up to half a print unit on every
 //! position; a `k`-th difference weighs them with binomial weights, so it shows up to
-//! [`VEL_NOISE_MM`]` / T`, [`ACC_NOISE_MM`]` / T^2` and [`jerk::JERK_NOISE_MM`]` / T^3`
+//! `VEL_NOISE_MM`` / T`, `ACC_NOISE_MM`` / T^2` and `jerk::JERK_NOISE_MM`` / T^3`
 //! of velocity, acceleration and jerk on a motion that holds its limit exactly. Each
 //! limit is therefore planned with that noise deducted on top of the share the grid's
 //! between-check terms need ([`planned_acc`], [`planned_vaxis`], [`jerk::planned_jerk`]);
 //! at the usual settings the relative reserves above are larger and nothing changes.
-//! A limit so small that the deduction would leave less than [`MIN_LIMIT_FRACTION`] of it
+//! A limit so small that the deduction would leave less than `MIN_LIMIT_FRACTION` of it
 //! is **refused** ([`PlanOptionsError::Unresolvable`], with the smallest value that can
 //! be held): no motion printed at that resolution and period can show it (any motion
 //! from rest needs a third difference of at least one print unit somewhere, i.e. a
 //! jerk of `1e-9 / T^3` mm/s^3, 1 mm/s^3 at 1 ms). The floors scale as `1/T`, `1/T^2`
 //! and `1/T^3`: a longer period resolves smaller limits. The feed and rapid rates are
 //! commanded speeds, planned at their value; the measured axis speeds may exceed them by
-//! the first difference's noise, [`VEL_NOISE_MM`]` / T` (a jerk-filtered run at the feed
+//! the first difference's noise, `VEL_NOISE_MM`` / T` (a jerk-filtered run at the feed
 //! showed 1.17 print units per period on camotics_tiger), and a rate is refused when one
-//! print unit per period is more than [`FEED_NOISE_SHARE`] of it.
+//! print unit per period is more than `FEED_NOISE_SHARE` of it.
 //! * Every stop is held until the next period boundary, so the stop point itself is a
 //!   setpoint (the corner is not cut between two setpoints) and the next motion starts on
 //!   the period grid.
@@ -102,40 +102,40 @@ pub use lookahead::{plan_stream, PlanEvent, PlanStats, ProfilePiece};
 use serde::Serialize;
 
 /// Fraction of the acceleration limits the planner uses (see the module doc).
-pub const ACC_PLANNING_FACTOR: f64 = 0.99;
+pub(crate) const ACC_PLANNING_FACTOR: f64 = 0.99;
 /// Fraction of the per-axis velocity limits the planner uses, a reserve for the
 /// interpolator's sub-micrometre position errors; inside curved intervals the velocity
 /// caps already allow for the tangent's turn (see [`grid`]).
-pub const VAXIS_PLANNING_FACTOR: f64 = 0.999;
+pub(crate) const VAXIS_PLANNING_FACTOR: f64 = 0.999;
 /// Resolution of the printed setpoint positions (mm): 9 decimals.
-pub const PRINT_RESOLUTION_MM: f64 = 1e-9;
+pub(crate) const PRINT_RESOLUTION_MM: f64 = 1e-9;
 /// Largest error of a first difference of printed positions (mm): rounding (2 x 0.5e-9)
 /// plus the interpolator's arc-length landing (2 x 0.5e-9).
-pub const VEL_NOISE_MM: f64 = 2e-9;
+pub(crate) const VEL_NOISE_MM: f64 = 2e-9;
 /// Largest error of a second difference of printed positions (mm): rounding and landing
 /// errors of 0.5e-9 each, weights 1, 2, 1.
-pub const ACC_NOISE_MM: f64 = 4e-9;
+pub(crate) const ACC_NOISE_MM: f64 = 4e-9;
 /// Share of an acceleration limit the grid's between-check terms may use
 /// ([`grid::TANGENT_SHARE`] + [`grid::PRODUCT_SHARE`] + [`grid::MAX_CURVATURE_BEND`]);
 /// the rest of the [`ACC_PLANNING_FACTOR`] reserve covers the finite-difference noise
 /// until that exceeds it.
-pub const ACC_CHECK_SHARE: f64 =
+pub(crate) const ACC_CHECK_SHARE: f64 =
     grid::TANGENT_SHARE + grid::PRODUCT_SHARE + grid::MAX_CURVATURE_BEND;
 /// Share of a per-axis velocity limit the tangent's turn inside a curved interval may use:
 /// `1 / cos(`[`grid::MAX_TURN_DEG`]` / 2) - 1` = 6.09e-4, rounded up.
-pub const VAXIS_CHECK_SHARE: f64 = 6.1e-4;
+pub(crate) const VAXIS_CHECK_SHARE: f64 = 6.1e-4;
 // The between-check shares fit inside the relative reserves.
 const _: () = assert!(ACC_CHECK_SHARE < 1.0 - ACC_PLANNING_FACTOR);
 const _: () = assert!(VAXIS_CHECK_SHARE < 1.0 - VAXIS_PLANNING_FACTOR);
 /// Smallest fraction of a limit left after the noise deduction; a smaller limit is refused
 /// (see the module doc).
-pub const MIN_LIMIT_FRACTION: f64 = 0.5;
+pub(crate) const MIN_LIMIT_FRACTION: f64 = 0.5;
 /// Largest share of the feed or rapid rate the print noise of a measured axis speed,
 /// one print unit per period, may be; slower rates are refused.
-pub const FEED_NOISE_SHARE: f64 = 1e-3;
+pub(crate) const FEED_NOISE_SHARE: f64 = 1e-3;
 
 /// The acceleration limit `a` (mm/s^2) as planned at period `period_s` (s): the
-/// [`ACC_PLANNING_FACTOR`] reserve, or the grid's share plus the finite-difference noise
+/// `ACC_PLANNING_FACTOR` reserve, or the grid's share plus the finite-difference noise
 /// when that is larger (see the module doc).
 pub fn planned_acc(a: f64, period_s: f64) -> f64 {
     (ACC_PLANNING_FACTOR * a)
@@ -149,7 +149,7 @@ pub fn planned_vaxis(v: f64, period_s: f64) -> f64 {
 }
 
 /// Smallest acceleration limit (mm/s^2) held at period `period_s`: below it
-/// [`planned_acc`] would be less than [`MIN_LIMIT_FRACTION`] of the limit.
+/// [`planned_acc`] would be less than `MIN_LIMIT_FRACTION` of the limit.
 pub fn min_acc_mm_s2(period_s: f64) -> f64 {
     ACC_NOISE_MM / (period_s * period_s) / (1.0 - ACC_CHECK_SHARE - MIN_LIMIT_FRACTION)
 }
@@ -160,7 +160,7 @@ pub fn min_vaxis_mm_s(period_s: f64) -> f64 {
 }
 
 /// Smallest feed or rapid rate (mm/s) at period `period_s`: one print unit per period is
-/// [`FEED_NOISE_SHARE`] of it.
+/// `FEED_NOISE_SHARE` of it.
 pub fn min_feed_mm_s(period_s: f64) -> f64 {
     PRINT_RESOLUTION_MM / period_s / FEED_NOISE_SHARE
 }
@@ -189,8 +189,8 @@ pub struct PlanOptions {
     pub junction_dev_mm: Option<f64>,
     /// Jerk mode: the split of the limits ([`jerk::JerkSplit`]); `None` (default): the
     /// planning run ([`crate::interp::execute`]) takes the fastest of
-    /// [`jerk::SPLIT_CANDIDATES`] for the path ([`jerk::fastest_split`]); planning
-    /// functions given `None` directly use [`jerk::JerkSplit::DEFAULT`].
+    /// `SPLIT_CANDIDATES` for the path ([`jerk::fastest_split`]); planning
+    /// functions given `None` directly use `jerk::JerkSplit::DEFAULT`.
     pub jerk_split: Option<jerk::JerkSplit>,
     /// Jerk mode: how the S-curve is made. Default [`JerkScheme::Filter`].
     pub jerk_scheme: JerkScheme,
@@ -376,7 +376,7 @@ fn resolvable(
 }
 
 /// Accuracy (mm) of the move lengths in [`PlanOptions::min_cycle_time_s`].
-pub const ESTIMATE_ACCURACY_MM: f64 = 1e-6;
+pub(crate) const ESTIMATE_ACCURACY_MM: f64 = 1e-6;
 
 impl PlanOptions {
     /// A lower bound on the cycle time (s) of `tp`: every move run at its speed cap
@@ -387,7 +387,7 @@ impl PlanOptions {
         tp.moves().map(|m| self.move_floor_s(m)).sum()
     }
 
-    /// The least time (s) move `m` takes: its length (to [`ESTIMATE_ACCURACY_MM`]) at its
+    /// The least time (s) move `m` takes: its length (to `ESTIMATE_ACCURACY_MM`) at its
     /// speed cap (see [`PlanOptions::min_cycle_time_s`]).
     pub fn move_floor_s(&self, m: &crate::path::Move) -> f64 {
         use crate::geom::ParamCurveArclen;

@@ -6,7 +6,7 @@
 //! look-ahead's grid consumer and the interpolator. Each tells the window below which
 //! move it needs nothing more ([`MoveWindow::release`]); moves below every reader's mark
 //! are dropped. The indexing side waits ([`MoveWindow::push`]) while it is more than
-//! [`DEFAULT_AHEAD_MOVES`] moves ahead of the grid reader that pulls them (the producer,
+//! `DEFAULT_AHEAD_MOVES` moves ahead of the grid reader that pulls them (the producer,
 //! which may wait for moves with a batch half filled while the consumer waits for that
 //! batch: the window must not wait for the consumer). How far the interpolator
 //! trails them is bounded by the planning pipeline itself: the look-ahead window (a few
@@ -88,7 +88,7 @@ pub struct MoveWindow {
 
 /// Moves the indexing side may be ahead of the grid reader that pulls them (each batch
 /// of the grid producer takes 256).
-pub const DEFAULT_AHEAD_MOVES: usize = 1 << 14;
+pub(crate) const DEFAULT_AHEAD_MOVES: usize = 1 << 14;
 
 impl Default for MoveWindow {
     fn default() -> Self {

@@ -42,17 +42,17 @@ pub struct Arc {
 
 /// Chord between an arc's in-plane ends, as a share of its radius, below which the ends
 /// coincide and the arc is a full circle (rounding of the end point).
-pub const FULL_CIRCLE_CHORD_SHARE: f64 = 1e-12;
+pub(crate) const FULL_CIRCLE_CHORD_SHARE: f64 = 1e-12;
 
 /// Difference of the end radius from the start radius, as a share of the start radius, up
 /// to which [`Arc::from_center`] takes the arc for a circle: the round-off of a centre
 /// computed from an `R` word or of an end computed on the circle. The end is then within
 /// this share of the radius (or `SPIRAL_ROUNDOFF_ULPS`) of the given end point.
-pub const SPIRAL_ROUNDOFF_SHARE: f64 = 1e-12;
+pub(crate) const SPIRAL_ROUNDOFF_SHARE: f64 = 1e-12;
 
 /// The same round-off in units of `f64::EPSILON` of the largest coordinate of the start,
 /// end and centre: radii computed from coordinates of 1e5 mm carry 1e-11 mm of it.
-pub const SPIRAL_ROUNDOFF_ULPS: f64 = 1024.0;
+pub(crate) const SPIRAL_ROUNDOFF_ULPS: f64 = 1024.0;
 
 /// The plane geometry of an arc from its start, end, centre and axis (see
 /// [`Arc::from_center`]).

@@ -157,7 +157,7 @@ fn arclen_rec<C: ParamCurveDeriv + ?Sized>(
 /// degree 5; their difference bounds the error of the Kronrod sum with a wide margin.
 /// Nodes and weights from Kronrod's tables (checked by the tests: exact moments through
 /// degree 11).
-pub const GK7: [(f64, f64, f64); 7] = [
+pub(crate) const GK7: [(f64, f64, f64); 7] = [
     (0.0, 0.450_916_538_658_474_1, 8.0 / 9.0),
     (-0.434_243_749_346_802_6, 0.401_397_414_775_962_2, 0.0),
     (0.434_243_749_346_802_6, 0.401_397_414_775_962_2, 0.0),
@@ -182,7 +182,7 @@ fn gauss_kronrod7(d: impl Fn(f64) -> Vec3, a: f64, b: f64) -> (f64, f64) {
 }
 
 /// Arc length of `c` between parameters `t0 <= t1`, within `accuracy` (mm), for short
-/// smooth pieces: the 7-point Gauss-Kronrod sum ([`GK7`]) is accepted when it agrees with
+/// smooth pieces: the 7-point Gauss-Kronrod sum (`GK7`) is accepted when it agrees with
 /// its embedded 3-point Gauss sum within `accuracy` (the Gauss sum is much the weaker, so
 /// their difference bounds the Kronrod sum's error with a wide margin); otherwise when
 /// it agrees with the Kronrod sums over the two halves; otherwise [`arclen_adaptive`]

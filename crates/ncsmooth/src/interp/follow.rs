@@ -64,15 +64,15 @@ use crate::geom::{
 
 /// Tangential deceleration `U_c` of the safety brake, as a share of the smallest planned
 /// axis acceleration.
-pub const FOLLOW_U_SHARE: f64 = 0.6;
+pub(crate) const FOLLOW_U_SHARE: f64 = 0.6;
 /// Tangential jerk `J_e` of the safety brake and the landing, as a share of the smallest
 /// planned axis jerk.
-pub const FOLLOW_JE_SHARE: f64 = 0.6;
+pub(crate) const FOLLOW_JE_SHARE: f64 = 0.6;
 /// Grid step of the ceiling (mm); longer runs use a coarser step so that a run holds at
 /// most [`MAX_CEILING_POINTS`].
-pub const CEILING_STEP_MM: f64 = 0.01;
+pub(crate) const CEILING_STEP_MM: f64 = 0.01;
 /// Most grid points of a run's ceiling.
-pub const MAX_CEILING_POINTS: usize = 4_000_000;
+pub(crate) const MAX_CEILING_POINTS: usize = 4_000_000;
 /// Share of the jerk limit the curvature terms may take when a positive tangential
 /// acceleration is judged safe.
 const COUPLING_SHARE: f64 = 0.9;
@@ -88,17 +88,17 @@ const BISECTIONS: usize = 40;
 /// Projection steps to the advance of zero jerk.
 const PROJECTIONS: usize = 4;
 /// Speed cap set at a dead end, as a share of the speed there.
-pub const BACKOFF: f64 = 0.9;
+pub(crate) const BACKOFF: f64 = 0.9;
 /// Tangential acceleration cap set around a dead end, as a share of the acceleration.
-pub const ACC_BACKOFF: f64 = 0.7;
+pub(crate) const ACC_BACKOFF: f64 = 0.7;
 /// Half-length (mm) of the stretch the acceleration cap of a dead end covers.
 const ACC_ZONE_MM: f64 = 0.5;
 /// Floor (mm/s^2) of such an acceleration cap.
 const ACC_ZONE_FLOOR: f64 = 10.0;
 /// Time (s) rewound before the first sample above a lowered ceiling.
-pub const REWIND_S: f64 = 0.1;
+pub(crate) const REWIND_S: f64 = 0.1;
 /// Dead ends after which a run is given up with its current shares.
-pub const MAX_BACKTRACKS: usize = 400;
+pub(crate) const MAX_BACKTRACKS: usize = 400;
 /// Attempts with halved shares before falling back to the ceiling.
 const ATTEMPTS: usize = 3;
 /// Relative slack of the ceiling test (rounding).
@@ -170,9 +170,9 @@ fn arc_step<C: ParamCurve + ParamCurveDeriv>(c: &C, u0: f64, len: f64) -> (f64, 
 const PROBE_CACHE_MOVES: usize = 4;
 /// Steps a run may take, as a multiple of its samples in the trapezoid plan (plus
 /// [`STEP_BUDGET_SLACK`]), before the attempt is given up: dead ends rewind and replay.
-pub const STEP_BUDGET_FACTOR: usize = 20;
+pub(crate) const STEP_BUDGET_FACTOR: usize = 20;
 /// Steps every run may take besides.
-pub const STEP_BUDGET_SLACK: usize = 2000;
+pub(crate) const STEP_BUDGET_SLACK: usize = 2000;
 /// Most Newton-bisection steps of an arc-length solve.
 const ARC_ITERS: usize = 60;
 

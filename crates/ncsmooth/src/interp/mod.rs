@@ -51,7 +51,7 @@
 //! Lines are stepped exactly (`u = (s - s0)/len`): Newton would converge in zero iterations.
 //! The chord solve lands on the planned arc length to within `(L kappa)^2` effects of the
 //! curvature's variation and the method's own error; where it misses by more than
-//! [`ARC_CORRECTION_TOL_MM`], a safeguarded Newton step on arc length puts the setpoint
+//! `ARC_CORRECTION_TOL_MM`, a safeguarded Newton step on arc length puts the setpoint
 //! back on the plan (counted in [`InterpStats::arc_corrections`]; eta is that of the
 //! chord solve, as in the paper). The correction is on by default
 //! ([`InterpOptions::arc_correction`]); with it off the setpoints are the method's own,
@@ -59,7 +59,7 @@
 //! [`InterpStats::feed_fluctuation_max`] and the finite differences then show each
 //! method's error (measured figures in the tests of this module).
 //!
-//! `eta` is recorded on steps longer than [`ETA_MIN_STEP_MM`]: below that the rounding of
+//! `eta` is recorded on steps longer than `ETA_MIN_STEP_MM`: below that the rounding of
 //! the coordinates themselves dominates the ratio.
 
 mod follow;
@@ -89,9 +89,9 @@ use crate::path::ExtraAxes;
 use serde::Serialize;
 
 /// Steps shorter than this (mm) are not counted in the eta statistics.
-pub const ETA_MIN_STEP_MM: f64 = 1e-6;
+pub(crate) const ETA_MIN_STEP_MM: f64 = 1e-6;
 /// Most Newton iterations of one step under the default (both-conditions) stopping rule.
-pub const NEWTON_HARD_CAP: usize = 20;
+pub(crate) const NEWTON_HARD_CAP: usize = 20;
 /// Chord residuals within this many ulps of the coordinates end the iteration.
 const CHORD_ROUNDING_ULPS: f64 = 8.0;
 /// Largest half-angle (rad) of a step on its osculating circle solved on the chord; beyond
@@ -101,7 +101,7 @@ const MAX_HALF_ANGLE: f64 = 1.5;
 /// Largest difference (mm) between the arc length a step travels and the planned one
 /// before the step is corrected on arc length: the printing resolution of the setpoints
 /// (1e-9 mm is 4e-3 mm/s^2 of finite-difference acceleration at T = 1 ms).
-pub const ARC_CORRECTION_TOL_MM: f64 = 1e-9;
+pub(crate) const ARC_CORRECTION_TOL_MM: f64 = 1e-9;
 /// Iteration cap of the arc-length fallback solve.
 const FALLBACK_ITERS: usize = 60;
 /// Accuracy (mm) of the arc-length fallback solve.
@@ -142,12 +142,12 @@ pub struct InterpOptions {
     /// Newton iterations n. Default 2.
     pub max_iters: usize,
     /// Stopping rule of eq. 20. `false` (default): stop when `eta <= eta_tol` **and**
-    /// `k >= n` (eq. 20 as printed; at most [`NEWTON_HARD_CAP`] iterations). `true`: stop
+    /// `k >= n` (eq. 20 as printed; at most `NEWTON_HARD_CAP` iterations). `true`: stop
     /// when either holds (the common reading, cheaper, but it leaves position errors up to
     /// `eta_tol L` that show as finite-difference acceleration noise; see the module doc).
     pub stop_on_either: bool,
     /// Put every curve step back on the planned arc length when the method's solution
-    /// misses it by more than [`ARC_CORRECTION_TOL_MM`] (default true). `false` writes the
+    /// misses it by more than `ARC_CORRECTION_TOL_MM` (default true). `false` writes the
     /// method's own setpoints, so the methods can be compared by what they produce: the
     /// miss then shows as feed fluctuation and finite-difference noise (never as drift:
     /// the next step aims at the plan again).
@@ -219,7 +219,7 @@ pub struct InterpStats {
     /// Steps solved by the arc-length fallback.
     pub fallback_steps: usize,
     /// Steps whose chord solution missed the planned arc length by more than
-    /// [`ARC_CORRECTION_TOL_MM`] and were corrected on arc length.
+    /// `ARC_CORRECTION_TOL_MM` and were corrected on arc length.
     pub arc_corrections: usize,
     /// Largest miss (mm) of a step's solution from the planned arc length, before any
     /// correction: the method's own accuracy.

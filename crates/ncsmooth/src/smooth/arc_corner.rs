@@ -18,7 +18,7 @@
 //! `e` is the whole two-sided deviation of a transition: the corner `B` is the programmed
 //! point farthest from the arc (distance `e`), and every arc point is nearer to the legs
 //! than that (`e cos(beta/2)` at the arc's middle). So `E_max` is `--tol` (times
-//! [`CORNER_TOL_SHARE`], which keeps round-off on the safe side).
+//! `CORNER_TOL_SHARE`, which keeps round-off on the safe side).
 //!
 //! 3-D corners: the arc lies in the plane of the two legs (normal `AB x BC`); the writer
 //! emits it as G2/G3 when that plane is XY, XZ or YZ and flattens it otherwise.
@@ -28,11 +28,11 @@
 //!   12), so the two transitions of a line leave a (possibly empty) straight piece between
 //!   them. The walker checks it and emits no zero-length line.
 //! * Junctions turning by less than `straight_angle_deg` pass through unchanged.
-//! * A straight remainder shorter than [`MIN_STRAIGHT_MM`] between two transitions is not
+//! * A straight remainder shorter than `MIN_STRAIGHT_MM` between two transitions is not
 //!   emitted (its direction would be round-off).
 //! * Zero-length moves (shorter than [`DEGENERATE_MM`]) carry no direction: they are
 //!   skipped and the corner is formed by their neighbours.
-//! * Micro-legs (lines no longer than [`MICRO_LEG_SHARE`]` tol`, a CAM file's quantisation
+//! * Micro-legs (lines no longer than `MICRO_LEG_SHARE`` tol`, a CAM file's quantisation
 //!   such as camotics_vcarve's 1e-6 inch steps) between two longer lines are one corner at
 //!   the run's middle point, the transitions' tolerance reduced by the shift; each of their
 //!   corners would need an arc below `min_radius_mm` and stop (camotics_vcarve: 99 stops
@@ -67,19 +67,19 @@ use crate::verify::DEGENERATE_MM;
 
 /// Share of the tolerance a transition may use: `E_max = tol * CORNER_TOL_SHARE`. The
 /// missing part (1 ppm) absorbs floating-point round-off in the arc's construction.
-pub const CORNER_TOL_SHARE: f64 = 1.0 - 1e-6;
+pub(crate) const CORNER_TOL_SHARE: f64 = 1.0 - 1e-6;
 
 /// Shortest straight piece (mm) left between a transition and its neighbour: a shorter
 /// remainder is dropped and the pieces around it meet with a gap below
 /// [`crate::verify::GAP_TOL_MM`]. Its direction would be round-off (at 1e5 mm coordinates the
 /// last bit is 1.5e-11 mm), i.e. a spurious tangent break.
-pub const MIN_STRAIGHT_MM: f64 = 0.5 * crate::verify::GAP_TOL_MM;
+pub(crate) const MIN_STRAIGHT_MM: f64 = 0.5 * crate::verify::GAP_TOL_MM;
 
 /// Longest line (as a share of the tolerance) that counts as a micro-leg: a run of such
 /// lines between two longer ones is one corner at the run's middle point (its transition
 /// takes the largest distance of the run's points from that point, at most this share,
 /// from its tolerance; see the module doc).
-pub const MICRO_LEG_SHARE: f64 = 0.02;
+pub(crate) const MICRO_LEG_SHARE: f64 = 0.02;
 
 /// Settings of `--method arc` (and of the corners of `--method nurbs`).
 #[derive(Clone, Debug, PartialEq)]

@@ -19,12 +19,12 @@
 //! ## The fit ([`arc_spline`])
 //! Each cubic piece `[t0, t1]` gets a biarc on its end points and tangents; the piece is
 //! halved until the biarc is within `max_dev_mm` of the piece and each arc's curvature
-//! vector is within [`CURVATURE_SHARE`] of the piece's largest curvature on the arc's half
-//! (plus [`CURVATURE_FLOOR_PER_MM`]) at every sample, down to [`MIN_ARC_MM`]: the steps
+//! vector is within `CURVATURE_SHARE` of the piece's largest curvature on the arc's half
+//! (plus `CURVATURE_FLOOR_PER_MM`) at every sample, down to `MIN_ARC_MM`: the steps
 //! between consecutive arcs are then small against the curvature, which is what a
 //! jerk-limited plan pays for (`v^2 dk` per period against `J T`; with `v^2 <= A / k` on
 //! a curve, a relative step of `J T / A`, 2 % at 3000 mm/s^2, 60000 mm/s^3, 1 ms). An
-//! arc of curvature below [`LINE_CURVATURE_PER_MM`] is a line. What it bounds: the sampled
+//! arc of curvature below `LINE_CURVATURE_PER_MM` is a line. What it bounds: the sampled
 //! distance to the cubic (the caller measures the result against the band).
 
 use crate::geom::{Arc, Line, ParamCurveCurvature};
@@ -32,22 +32,22 @@ use crate::geom::{ParamCurveNearest, Segment, Vec3};
 
 /// Largest difference between an arc's curvature vector and the cubic's, as a share of
 /// the cubic's largest curvature on the arc's span.
-pub const CURVATURE_SHARE: f64 = 0.02;
+pub(crate) const CURVATURE_SHARE: f64 = 0.02;
 /// Curvature difference (1/mm) always accepted: a step of 1e-3 /mm at 200 mm/s is
 /// 40 mm/s^2 of normal acceleration.
-pub const CURVATURE_FLOOR_PER_MM: f64 = 1e-3;
+pub(crate) const CURVATURE_FLOOR_PER_MM: f64 = 1e-3;
 /// An arc of less curvature than this (1/mm, a radius of 10 m) is written as its chord:
 /// a tenth of [`CURVATURE_FLOOR_PER_MM`], so the step to it is accepted too.
-pub const LINE_CURVATURE_PER_MM: f64 = 0.1 * CURVATURE_FLOOR_PER_MM;
+pub(crate) const LINE_CURVATURE_PER_MM: f64 = 0.1 * CURVATURE_FLOOR_PER_MM;
 /// Arcs are not split for curvature below about this length (mm; a biarc spanning less
 /// than four of it is not halved for curvature): a period's travel at 10 mm/s and 1 ms,
 /// where the steps of shorter arcs fall into one period of a plan and add up to what the
 /// curve's own curvature change costs. The floor trades some cycle time for fewer
 /// blocks (a file with an E axis keeps every arc a block; figures in
 /// `docs/benchmarks/2026-12-02.md`).
-pub const MIN_ARC_MM: f64 = 0.01;
+pub(crate) const MIN_ARC_MM: f64 = 0.01;
 /// Most halvings of one cubic piece.
-pub const MAX_DEPTH: u32 = 14;
+pub(crate) const MAX_DEPTH: u32 = 14;
 /// Samples per biarc half for the distance and curvature tests.
 const SAMPLES: usize = 6;
 

@@ -28,7 +28,7 @@
 //! Subject to, at sample parameters:
 //! * `C(u_i)` in the ball of radius `r` around `Q_i` (the vertex side of the contract);
 //! * `C(v)` in the capsule of radius `r` around the chord `Q_j Q_(j+1)` whose parameter
-//!   range holds `v`, at [`SPAN_SAMPLES`] parameters per knot span (the output side),
+//!   range holds `v`, at `SPAN_SAMPLES` parameters per knot span (the output side),
 //!
 //! with `r = band_share * tol`. Balls and capsules are convex and `C(v)` is linear in the
 //! control points, so this is a convex QP: its minimiser is the smoothest curve of the
@@ -38,11 +38,11 @@
 //! The alternating direction method of multipliers in the form of OSQP (Stellato et al.
 //! 2020) with the projections onto the sets done exactly: `x`-update
 //! `(P + rho A^T A) x = rho A^T (z - y)` (a banded Cholesky, factored once per `rho`,
-//! solved for the three coordinates at once), over-relaxation `alpha = `[`ADMM_ALPHA`],
+//! solved for the three coordinates at once), over-relaxation `alpha = ``ADMM_ALPHA`,
 //! `z` = projection onto the ball or capsule of each row, scaled dual `y`. `rho` is
-//! balanced every [`RHO_EVERY`] iterations against the primal and dual residuals. The
+//! balanced every `RHO_EVERY` iterations against the primal and dual residuals. The
 //! iteration starts from the polyline itself and stops when the samples are within the
-//! band up to [`PRIMAL_SHARE`] of `tol` and the control points have settled (and, when
+//! band up to `PRIMAL_SHARE` of `tol` and the control points have settled (and, when
 //! set, the penalty has stopped falling: [`BandFitOptions::energy_settle_share`]). The
 //! initial knots are the points' parameters (at least
 //! [`BandFitOptions::min_knot_span_mm`] apart).
@@ -86,24 +86,24 @@ use crate::verify::{deviation_segments, Deviation};
 /// Interior samples per knot span for the curve-to-chord constraints (the dense check
 /// after a solve catches the curve between them: 2 costs fewer rows per iteration than 3
 /// for a few more refinements, linuxcnc_stellabee1 ADMM work 42 M -> 25 M row-iterations).
-pub const SPAN_SAMPLES: usize = 2;
+pub(crate) const SPAN_SAMPLES: usize = 2;
 /// Over-relaxation of the ADMM iteration (OSQP's default).
-pub const ADMM_ALPHA: f64 = 1.6;
+pub(crate) const ADMM_ALPHA: f64 = 1.6;
 /// Iterations between two adjustments of `rho`. Frequent adjustments (each a banded
 /// refactorisation, the cost of a few iterations) at a low ratio: the runs' iterations
 /// halve (linuxcnc_stellabee1 bspline: 0.85 M -> 0.36 M; 25 and 10 were tried).
-pub const RHO_EVERY: usize = 5;
+pub(crate) const RHO_EVERY: usize = 5;
 /// Ratio of the residuals beyond which `rho` is adjusted.
 const RHO_RATIO: f64 = 3.0;
 /// Factor of a `rho` adjustment.
 const RHO_STEP: f64 = 5.0;
 /// The samples may lie this share of `tol` beyond the band when the iteration stops (the
 /// measurement decides; the band's own margin, `1 - band_share`, is five times this).
-pub const PRIMAL_SHARE: f64 = 1e-2;
+pub(crate) const PRIMAL_SHARE: f64 = 1e-2;
 /// The iteration has settled when no control point moved more than this share of `tol`
 /// in its last step (looser settings change no cycle time measured on the profiles and
 /// the shared files; this one halves the time of `camotics_tiger` against 1e-2).
-pub const SETTLE_SHARE: f64 = 1e-1;
+pub(crate) const SETTLE_SHARE: f64 = 1e-1;
 /// Growth of `rho` past which a solve whose samples stay out of the band is stopped as
 /// infeasible.
 const INFEASIBLE_RHO: f64 = 1e8;
@@ -112,9 +112,9 @@ const DENSE_SAMPLES: usize = 16;
 /// Shortest knot span a refinement creates (mm).
 const MIN_SPAN_MM: f64 = 1e-4;
 /// [`BandFitOptions::min_knot_span_mm`] of [`BandFitOptions::converged`].
-pub const MIN_KNOT_SPAN_MM: f64 = 0.02;
+pub(crate) const MIN_KNOT_SPAN_MM: f64 = 0.02;
 /// [`BandFitOptions::energy_settle_share`] of [`BandFitOptions::converged`].
-pub const ENERGY_SETTLE_SHARE: f64 = 1e-4;
+pub(crate) const ENERGY_SETTLE_SHARE: f64 = 1e-4;
 /// Fewest initial knot spans of a run (the ends' fixed control points leave the rest
 /// free).
 const MIN_SPANS: f64 = 8.0;
@@ -156,12 +156,12 @@ pub struct BandFitOptions {
     /// Shortest initial knot span (mm; at most an eighth of the run): the points' knots
     /// closer than this to the last one kept are left out (refinement may split spans
     /// again where the band needs it). Default 0: a knot at every point;
-    /// [`BandFitOptions::converged`] sets [`MIN_KNOT_SPAN_MM`].
+    /// [`BandFitOptions::converged`] sets `MIN_KNOT_SPAN_MM`.
     pub min_knot_span_mm: f64,
     /// A solve inside the band stops only once the penalty `E(C)` changed by less than
-    /// this share of itself over the last [`RHO_EVERY`] iterations (as well as the control
+    /// this share of itself over the last `RHO_EVERY` iterations (as well as the control
     /// points having settled). Default 0: the first settled iterate;
-    /// [`BandFitOptions::converged`] sets [`ENERGY_SETTLE_SHARE`].
+    /// [`BandFitOptions::converged`] sets `ENERGY_SETTLE_SHARE`.
     pub energy_settle_share: f64,
 }
 
@@ -226,9 +226,9 @@ impl Default for BandFitOptions {
 
 impl BandFitOptions {
     /// The fit run to its minimum (see Limits in the module doc): initial knot spans of at
-    /// least [`MIN_KNOT_SPAN_MM`] and the stop on the penalty ([`ENERGY_SETTLE_SHARE`]).
+    /// least `MIN_KNOT_SPAN_MM` and the stop on the penalty (`ENERGY_SETTLE_SHARE`).
     /// What `ncsmooth smooth` uses for LinuxCNC, whose blends follow the written curve's
-    /// own radius (with the merging of [`MERGE_SHARE`]). Not the default: it costs
+    /// own radius (with the merging of `MERGE_SHARE`). Not the default: it costs
     /// computing time, and on other paths it plans no faster (figures in
     /// `docs/benchmarks/2026-12-02.md`).
     pub fn converged() -> BandFitOptions {
@@ -254,7 +254,7 @@ pub struct RunOptions {
     pub fit: BandFitOptions,
     /// Share of the method's tolerance within which nearly collinear lines are merged
     /// before a chain is smoothed ([`super::simplify`]; the method then smooths within
-    /// the rest). Default [`MERGE_SHARE`]; 0 merges nothing. Applies only with `enabled`.
+    /// the rest). Default `MERGE_SHARE`; 0 merges nothing. Applies only with `enabled`.
     pub merge_share: f64,
 }
 
@@ -291,7 +291,7 @@ impl RunOptions {
 /// run to its minimum). The merged points stay within this share of the tolerance, so
 /// the method smooths within the rest; shares of 0.2 and 0.4 were measured slower on
 /// LinuxCNC 2.9 (`docs/benchmarks/2026-12-02.md`).
-pub const MERGE_SHARE: f64 = 0.3;
+pub(crate) const MERGE_SHARE: f64 = 0.3;
 
 impl Default for RunOptions {
     fn default() -> Self {

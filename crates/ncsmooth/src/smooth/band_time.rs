@@ -39,15 +39,15 @@
 //!    band's two sides at the samples (each sample's distance to the run's polyline beyond
 //!    `r`, each vertex's distance to the sampled curve beyond `r`), minimised by L-BFGS
 //!    (Nocedal and Wright, algorithm 7.4, Armijo backtracking) on forward-difference
-//!    gradients, for a rising sequence of weights [`PENALTY_WEIGHTS`], then rounds of
+//!    gradients, for a rising sequence of weights `PENALTY_WEIGHTS`, then rounds of
 //!    coordinate sweeps and L-BFGS at the last weight. A difference quotient moves one
 //!    control point: only its samples are re-evaluated, and the two passes are redone only
 //!    until they meet the cached profile again.
 //! 5. **Acceptance.** The reshaped curve is measured exactly against the run's polyline
 //!    ([`crate::verify::deviation_segments`]); a window is kept only when the deviation
-//!    is within the tolerance, the model time fell by at least [`MIN_GAIN_S`], and the
-//!    reshaped part neither turns much more than the fit did ([`MAX_EXTRA_TURN_RAD`]: no
-//!    loop) nor slows its parameter to a cusp ([`MIN_SPEED_SHARE`]).
+//!    is within the tolerance, the model time fell by at least `MIN_GAIN_S`, and the
+//!    reshaped part neither turns much more than the fit did (`MAX_EXTRA_TURN_RAD`: no
+//!    loop) nor slows its parameter to a cusp (`MIN_SPEED_SHARE`).
 //!
 //! ## Limits
 //! The optimisation is local (a start at the band fit, a fixed knot layout); the model
@@ -184,9 +184,9 @@ impl TimeShapeOptions {
 }
 
 /// The penalty weights, applied in turn (each stage starts where the last ended).
-pub const PENALTY_WEIGHTS: [f64; 3] = [10.0, 1e3, 1e5];
+pub(crate) const PENALTY_WEIGHTS: [f64; 3] = [10.0, 1e3, 1e5];
 /// Smallest model gain (s) for which a reshaped window is kept.
-pub const MIN_GAIN_S: f64 = 1e-5;
+pub(crate) const MIN_GAIN_S: f64 = 1e-5;
 /// Forward-difference step (mm) of the gradient.
 const FD_STEP_MM: f64 = 1e-6;
 /// Spacing (mm) of the whole-curve profile that finds the spots.
@@ -206,12 +206,12 @@ const FLAT_PATIENCE: usize = 5;
 /// quantised points give knot spans of a tenth of a micrometre: 390 and 715 degrees more
 /// inside spans shorter than a sample step, before those spans got samples of their own;
 /// written as lines, a loop is a run of reversing blocks).
-pub const MAX_EXTRA_TURN_RAD: f64 = std::f64::consts::FRAC_PI_2;
+pub(crate) const MAX_EXTRA_TURN_RAD: f64 = std::f64::consts::FRAC_PI_2;
 /// The least parametric speed `|C'|` of the reshaped part, as a share of the fit's there
 /// (about 1 with the chord-length parameter, 0.44-0.98 at butterfly_1000's spots, which
 /// keep 0.85 of it): a cusp, where it vanishes, is a reversal, the limit of a tight apex
 /// that the model takes for a stop and a controller for a corner.
-pub const MIN_SPEED_SHARE: f64 = 0.5;
+pub(crate) const MIN_SPEED_SHARE: f64 = 0.5;
 /// Samples inside a knot span shorter than two sample steps.
 const SPAN_SAMPLES_SHORT: usize = 3;
 /// Tangent samples per knot span of the turn check.

@@ -63,7 +63,7 @@
 //! ## Choices where the paper is silent
 //! * **Straight junctions** (turn below [`SmoothOptions::straight_angle_deg`]) pass through
 //!   unchanged.
-//! * **Reversals**: a corner angle `2 theta` at or below [`REVERSAL_ANGLE_DEG`] has no plane;
+//! * **Reversals**: a corner angle `2 theta` at or below `REVERSAL_ANGLE_DEG` has no plane;
 //!   the B-spline would retrace the leg with a cusp at `M`. It is an exact stop
 //!   (`corners_stopped`). So is a corner whose transition would be shorter than
 //!   [`DEGENERATE_MM`] (possible only with `lambda` close to 1).
@@ -98,7 +98,7 @@
 //! sampled every few tenths of a millimetre, one transition per vertex makes the curvature
 //! go straight, blend, straight, blend, with peaks far above the sampled curve's. With
 //! [`SmoothOptions::run`] enabled (the default), runs of micro-corners (turns up to
-//! [`super::screen::RUN_MAX_TURN_DEG`] between lines of similar length) are first replaced
+//! `RUN_MAX_TURN_DEG` between lines of similar length) are first replaced
 //! by one cubic B-spline through the whole two-sided band ([`super::band_fit`]: the curve
 //! of least curvature and curvature variation within the band), carried as the cubic
 //! Béziers of its knot spans like the transitions here. What follows the paper: the curve
@@ -139,11 +139,11 @@ pub const KNOTS: [f64; 9] = [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0];
 /// Relative margin below `tol` of the target error in [`BandSemantics::TwoSided`]: absorbs
 /// the rounding of the control points (a few ulps of the coordinates), so that the built
 /// curve holds `tol` exactly and not just in exact arithmetic.
-pub const TOL_SAFETY: f64 = 1e-7;
+pub(crate) const TOL_SAFETY: f64 = 1e-7;
 
 /// Corner angle (degrees; the angle between the legs at the vertex, 0 for a full reversal)
 /// at or below which a corner is a reversal and becomes an exact stop.
-pub const REVERSAL_ANGLE_DEG: f64 = TANGENT_TOL_DEG;
+pub(crate) const REVERSAL_ANGLE_DEG: f64 = TANGENT_TOL_DEG;
 
 /// Accuracy (mm) of the arc-length sampling of [`curvature_profile`], relative to the step.
 const PROFILE_ACCURACY_REL: f64 = 1e-6;

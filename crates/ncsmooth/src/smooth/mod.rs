@@ -503,7 +503,7 @@ fn flow_cuts(chain: &Chain<'_>) -> Vec<usize> {
 /// shorter than 0.01 mm; butterfly_1000, crown and linuxcnc_blur_torus have none, and
 /// merging the nearly collinear points of butterfly_1000's 0.4 mm chords ran slower on
 /// LinuxCNC 2.9).
-pub const MICRO_LINE_TOLS: f64 = 2.0;
+pub(crate) const MICRO_LINE_TOLS: f64 = 2.0;
 
 /// [`smooth_chain`] on a stretch of one flow: its nearly collinear lines merged within
 /// [`band_fit::RunOptions::merge_share`] of the tolerance ([`simplify`]) and the method

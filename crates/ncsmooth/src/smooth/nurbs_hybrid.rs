@@ -36,8 +36,8 @@
 //! ## Run mode (an extension)
 //! With [`SmoothOptions::run`] enabled (the default) steps 1 and 3 change; the rest is the
 //! paper's. Screening uses [`ScreenOptions::run_mode`]: the chord-error condition of eq. 6
-//! is relaxed to [`super::screen::RUN_CHORD_SHARE`] times the tolerance and turns up to
-//! [`super::screen::RUN_MAX_TURN_DEG`] qualify, so the sampled tips of a curve stay in its
+//! is relaxed to `RUN_CHORD_SHARE` times the tolerance and turns up to
+//! `RUN_MAX_TURN_DEG` qualify, so the sampled tips of a curve stay in its
 //! run instead of becoming arc corners. The run is fitted not by interpolating its
 //! vertices (which makes the curve follow every sample and bulge between them) but by the
 //! cubic B-spline of least curvature and curvature variation within the two-sided band
@@ -62,7 +62,7 @@ use crate::path::Move;
 use crate::verify::{deviation_segments, DEGENERATE_MM};
 
 /// Degree of the fitted curves (the paper's cubic NURBS).
-pub const FIT_DEGREE: usize = 3;
+pub(crate) const FIT_DEGREE: usize = 3;
 
 /// Settings of `--method nurbs`.
 #[derive(Clone, Debug, PartialEq)]

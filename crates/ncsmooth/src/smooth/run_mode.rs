@@ -27,12 +27,12 @@
 //!   the stubs.
 //! * [`Family::Trig`] (Tao): one cubic trigonometric segment per cubic piece of the
 //!   B-spline, in Tao's Hermite form (`k = -1`, eq. 3) on a short parameter window
-//!   ([`trig_window`], [`TRIG_WINDOW`], `lambda = `[`TRIG_LAMBDA`]) with the piece's end
+//!   ([`trig_window`], `TRIG_WINDOW`, `lambda = ``TRIG_LAMBDA`) with the piece's end
 //!   points and end derivatives: G1 at the joints and G2 up to the window's small error;
 //!   measured against the band like the B-spline (a fit a little inside the band,
-//!   [`TRIG_BAND_MARGIN`], leaves it room).
+//!   `TRIG_BAND_MARGIN`, leaves it room).
 //! * [`Family::Arcs`] (Wu's arc transitions, `--method arc`): tangent-continuous arcs
-//!   along the B-spline ([`super::arc_spline`], biarcs within half of [`ARC_BAND_MARGIN`]
+//!   along the B-spline ([`super::arc_spline`], biarcs within half of `ARC_BAND_MARGIN`
 //!   of the tolerance, split until consecutive arcs differ little in curvature): G1 at the
 //!   joints with curvature steps of a few per cent, where one arc per corner steps between
 //!   zero and `1/R` at every leg.
@@ -58,29 +58,29 @@ use crate::verify::DEGENERATE_MM;
 /// Share of the tolerance used by the accuracy of the fits' measurements (a fit is
 /// accepted when measured + accuracy <= tol; the band's dense check holds the curve to
 /// `tol - 2 accuracy`, still outside the band of [`super::band_fit::BandFitOptions`]).
-pub const MEASURE_SHARE: f64 = 0.02;
+pub(crate) const MEASURE_SHARE: f64 = 0.02;
 /// Share of a line left to the corner transition at a run end that meets a corner.
-pub const STUB_SHARE: f64 = 0.5;
+pub(crate) const STUB_SHARE: f64 = 0.5;
 /// Parameter window of the trigonometric run segments ([`trig_window`]).
-pub const TRIG_WINDOW: f64 = 0.05;
+pub(crate) const TRIG_WINDOW: f64 = 0.05;
 /// `lambda` of the trigonometric run segments: the circle's (eq. 9).
-pub const TRIG_LAMBDA: f64 = 1.0;
+pub(crate) const TRIG_LAMBDA: f64 = 1.0;
 /// Share of the tolerance taken off the B-spline's band when a trigonometric spline is to
 /// follow it.
-pub const TRIG_BAND_MARGIN: f64 = 0.01;
+pub(crate) const TRIG_BAND_MARGIN: f64 = 0.01;
 /// Share of the tolerance taken off the B-spline's band when arcs are to follow it; the
 /// arcs keep within half of it from the B-spline.
-pub const ARC_BAND_MARGIN: f64 = 0.04;
+pub(crate) const ARC_BAND_MARGIN: f64 = 0.04;
 
 /// How far along the run (mm of its chord-length parameter) a piece end's foot on the
 /// polyline is searched from the parameter's own chord (`Fitted::foot`).
-pub const POS_SEARCH_MM: f64 = 2.0;
+pub(crate) const POS_SEARCH_MM: f64 = 2.0;
 /// Chords whose distance to a piece end is within this share of the tolerance of the
 /// nearest are equally near for `Fitted::foot` (a hairpin narrower than the band).
-pub const POS_TIE_SHARE: f64 = 0.1;
+pub(crate) const POS_TIE_SHARE: f64 = 0.1;
 
 /// Fewest runs in a chain for fitting them on several threads.
-pub const PARALLEL_MIN_RUNS: usize = 16;
+pub(crate) const PARALLEL_MIN_RUNS: usize = 16;
 
 /// How the run curves are carried.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -310,7 +310,7 @@ fn bezier_pieces(f: &Fitted) -> Vec<(Segment, f64, f64)> {
 /// applied to a cubic piece: on a short window the basis `{C^3, S^3, S^2, C, S, 1}`
 /// spans the cubics up to `O(eps)`, so the segment follows the cubic Hermite curve with
 /// the same end data (a Bézier piece of the run's B-spline) closely, curvature included
-/// ([`TRIG_WINDOW`]; measured by the caller). `None` when the system is singular.
+/// (`TRIG_WINDOW`; measured by the caller). `None` when the system is singular.
 pub fn trig_window(
     p0: Vec3,
     d0: Vec3,

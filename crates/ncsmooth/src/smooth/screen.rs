@@ -101,8 +101,8 @@ impl Default for ScreenOptions {
 
 impl ScreenOptions {
     /// The screening of the methods' run mode ([`super::band_fit`]): micro-corners turning
-    /// by up to [`RUN_MAX_TURN_DEG`] between lines of any lengths ([`RUN_RATIO_MAX`])
-    /// whose chord error (eq. 6) is at most [`RUN_CHORD_SHARE`] times the tolerance. The band fit measures its own deviation, so the chord error need not
+    /// by up to `RUN_MAX_TURN_DEG` between lines of any lengths (`RUN_RATIO_MAX`)
+    /// whose chord error (eq. 6) is at most `RUN_CHORD_SHARE` times the tolerance. The band fit measures its own deviation, so the chord error need not
     /// leave room for a curve through the vertices: it only keeps coarse polygons (long
     /// lines turning by a few degrees, where a curve would have to hug every line) out of
     /// the runs.
@@ -120,16 +120,16 @@ impl ScreenOptions {
 /// Largest turn (degrees) of a junction inside a run of the run mode: the sampled tips of
 /// butterfly_1000 (0.4 mm chords) turn by up to 100 degrees at one vertex; a sharper turn
 /// is a corner, left to the method's transition.
-pub const RUN_MAX_TURN_DEG: f64 = 105.0;
+pub(crate) const RUN_MAX_TURN_DEG: f64 = 105.0;
 /// Largest ratio of neighbouring line lengths inside a run of the run mode: none. The
 /// band fit measures its own deviation, and a CAM file's short lines beside long ones
 /// (camotics_vcarve: 0.05 mm between 0.16 and 0.19 mm lines turning 15 degrees each) are
 /// where one curve through the band beats a corner per vertex; a limit of 4 split such
 /// bends into runs and corners (measured with the merging of micro-lines, see
 /// [`super::band_fit::MERGE_SHARE`]).
-pub const RUN_RATIO_MAX: f64 = f64::INFINITY;
+pub(crate) const RUN_RATIO_MAX: f64 = f64::INFINITY;
 /// Largest chord error (eq. 6) inside a run of the run mode, as a multiple of the tolerance.
-pub const RUN_CHORD_SHARE: f64 = 8.0;
+pub(crate) const RUN_CHORD_SHARE: f64 = 8.0;
 
 /// A run of consecutive line moves of a chain: indices `first..=last`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -18,7 +18,7 @@
 //! exactly that of [`super::smooth`].
 //!
 //! With a window, the per-run lists of [`SmoothReport`] keep their first
-//! [`MAX_LISTED_RUNS`] entries (the counts are complete).
+//! `MAX_LISTED_RUNS` entries (the counts are complete).
 
 use super::band_time::{TimeLimits, TimeShapeOptions};
 use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport, Smoothed};
@@ -28,14 +28,14 @@ use crate::path::{Block, ExtraAxes, Move, MoveKind};
 use crate::verify::deviation_segments;
 
 /// Entries kept in the per-run lists of the report.
-pub const MAX_LISTED_RUNS: usize = 10_000;
+pub(crate) const MAX_LISTED_RUNS: usize = 10_000;
 
 /// Settings of [`StreamSmoother`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub struct StreamOptions {
     /// Most moves of a chain held before it is cut (see the module doc). Default
-    /// [`StreamOptions::DEFAULT_WINDOW_MOVES`]: about 1 MB of moves, longer than the runs
+    /// `StreamOptions::DEFAULT_WINDOW_MOVES`: about 1 MB of moves, longer than the runs
     /// of micro-lines between corners of real CAM output, which are cut only on
     /// continuous surfacing passes and spirals.
     pub window_moves: usize,
@@ -67,7 +67,7 @@ impl WindowCheck {
 
 impl StreamOptions {
     /// Default of [`StreamOptions::window_moves`].
-    pub const DEFAULT_WINDOW_MOVES: usize = 8192;
+    pub(crate) const DEFAULT_WINDOW_MOVES: usize = 8192;
 }
 
 impl Default for StreamOptions {

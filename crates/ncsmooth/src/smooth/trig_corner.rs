@@ -30,7 +30,7 @@
 //! C1 as eq. 5 asks; at the other ends the derivative is the leg direction times the
 //! segment's chord.
 //! Every such segment is **measured** with [`deviation_segments`] against the part of its
-//! leg it replaces; when it is not within `tol` for any `lambda` of [`RUN_LAMBDAS`], its
+//! leg it replaces; when it is not within `tol` for any `lambda` of `RUN_LAMBDAS`, its
 //! smooth ends become corners (the run is split there) and the plan is redone. This ends,
 //! because vertices only ever leave the smooth kind, and the fallback (corners and lines)
 //! holds `tol` by construction.
@@ -92,7 +92,7 @@
 //! `B` along the outgoing direction, so the corner is cut exactly. Its excursion (largest
 //! distance from `B`) is `tau e`, `e` measured at `tau = 1`; `tau = loop_size (1 -
 //! CORNER_TOL_MARGIN) / e`. `lambda` per `beta` comes from a table (entries computed on first use): on a grid
-//! of [`LOOP_LAMBDA_MIN`]..[`LOOP_LAMBDA_MAX`] the value with the lowest peak curvature at
+//! of `LOOP_LAMBDA_MIN`..`LOOP_LAMBDA_MAX` the value with the lowest peak curvature at
 //! a given excursion, among shapes that turn one way only. Loops are used for turns in
 //! `[loop_min_turn_deg, LOOP_MAX_TURN_DEG]`; below, a loop would be a near full circle for
 //! a corner the tolerance can simply round; above, `B1`, `B2` and `B` become collinear (at
@@ -112,22 +112,22 @@ pub use options::{CornerStyle, TrigOptions};
 
 /// Share of the tolerance (or loop size) kept in reserve by the corner constructions for
 /// the refinement error of the measured unit-scale deviation.
-pub const CORNER_TOL_MARGIN: f64 = 1e-3;
+pub(crate) const CORNER_TOL_MARGIN: f64 = 1e-3;
 /// `lambda` values tried, in order, for a trig segment of a run before splitting the run.
-pub const RUN_LAMBDAS: [f64; 2] = [1.0, 1.5];
+pub(crate) const RUN_LAMBDAS: [f64; 2] = [1.0, 1.5];
 /// Accuracy of the per-segment run measurement, as a share of `tol`; the measured value
 /// plus this must be within `tol`.
-pub const RUN_MEASURE_SHARE: f64 = 0.01;
+pub(crate) const RUN_MEASURE_SHARE: f64 = 0.01;
 /// Largest turn (degrees) that gets a loop in loop mode (see module doc).
-pub const LOOP_MAX_TURN_DEG: f64 = 170.0;
+pub(crate) const LOOP_MAX_TURN_DEG: f64 = 170.0;
 /// Smallest `lambda` of the loop table grid.
-pub const LOOP_LAMBDA_MIN: f64 = -1.0;
+pub(crate) const LOOP_LAMBDA_MIN: f64 = -1.0;
 /// Largest `lambda` of the loop table grid.
-pub const LOOP_LAMBDA_MAX: f64 = 2.0;
+pub(crate) const LOOP_LAMBDA_MAX: f64 = 2.0;
 /// Grid step of the loop `lambda` table.
 const LOOP_LAMBDA_STEP: f64 = 0.1;
 /// `lambda` of inside transitions (see module doc).
-pub const ROUND_LAMBDA: f64 = 1.0;
+pub(crate) const ROUND_LAMBDA: f64 = 1.0;
 /// Samples of a unit-scale shape measurement (before refinement).
 const SHAPE_SAMPLES: usize = 64;
 /// Samples used while building the tables (choice of shape only; safety comes from the

@@ -127,7 +127,7 @@ impl NearestIndex {
 }
 
 /// Largest angle (rad) of an arc that [`NearestIndex::arc_hull_bound`] replaces by its chord.
-pub const MAX_HULL_FOOT_SPAN_RAD: f64 = std::f64::consts::FRAC_PI_2;
+pub(crate) const MAX_HULL_FOOT_SPAN_RAD: f64 = std::f64::consts::FRAC_PI_2;
 
 #[cfg(test)]
 mod tests {

@@ -39,13 +39,13 @@ pub struct GridBatch {
 }
 
 /// Moves per message of [`GridGen::produce`].
-pub const GRID_BATCH_MOVES: usize = 256;
+pub(crate) const GRID_BATCH_MOVES: usize = 256;
 /// Intervals after which a message of [`GridGen::produce`] is sent even with fewer than
 /// [`GRID_BATCH_MOVES`] moves: a long curve has thousands (a NURBS run of the `nurbs`
 /// method), and the queue's memory is in its intervals (about 160 bytes each).
-pub const GRID_BATCH_INTERVALS: usize = 4096;
+pub(crate) const GRID_BATCH_INTERVALS: usize = 4096;
 /// Messages [`GridGen::produce`] may run ahead of the planner (bounds the memory held).
-pub const GRID_QUEUE_BATCHES: usize = 16;
+pub(crate) const GRID_QUEUE_BATCHES: usize = 16;
 
 /// Lazily generates grid points and intervals from a [`PathIndex`].
 pub struct GridGen<'p> {
@@ -88,7 +88,7 @@ impl<'p> GridGen<'p> {
     }
 
     /// Computes the grid of every move in order and sends it in batches of
-    /// [`GRID_BATCH_MOVES`] (for a generator on another thread that [`GridGen::take_from`]
+    /// `GRID_BATCH_MOVES` (for a generator on another thread that [`GridGen::take_from`]
     /// the receiver); stops early when the receiver hangs up.
     pub fn produce(&self, tx: SyncSender<GridBatch>) {
         let mut j = 0;

@@ -4,10 +4,10 @@
 //! Lines are one straight interval each (their limits are constant along them, and the
 //! profile inside a straight interval may accelerate, cruise and decelerate, so no
 //! subdivision is needed). Arcs and curves are first cut uniformly in their parameter
-//! (halves no longer than about [`MAX_CURVE_DS_MM`], at least [`MIN_CURVE_INTERVALS`] per
+//! (halves no longer than about `MAX_CURVE_DS_MM`, at least `MIN_CURVE_INTERVALS` per
 //! move, per knot span for NURBS); their arc lengths come from the chords and end tangents
 //! of the halves (`arc_from_chord`), the move's total from adaptive quadrature at
-//! [`ARCLEN_ACCURACY_MM`] (the last interval takes the remainder).
+//! `ARCLEN_ACCURACY_MM` (the last interval takes the remainder).
 //!
 //! ## Refinement of curved intervals
 //! The planner imposes the per-axis acceleration `a_i = u T_i + x K_i` exactly at both
@@ -16,19 +16,19 @@
 //! all of these are linear in the interval's two end values of `x`. On each half `a_i`
 //! then differs from the straight line between its two checked values by three terms,
 //! and an interval is bisected until each term is a small share of `A_i` on both halves
-//! (together well inside the [`super::ACC_PLANNING_FACTOR`] reserve):
+//! (together well inside the `ACC_PLANNING_FACTOR` reserve):
 //!
 //! 1. the tangent's rotation: `u T_i` leaves the chord of its end values by up to
-//!    `|u| (1 - cos(turn / 2))`, kept within [`TANGENT_SHARE`]` A_i` (and the turn within
-//!    [`MAX_TURN_DEG`] for the velocity limits);
+//!    `|u| (1 - cos(turn / 2))`, kept within `TANGENT_SHARE`` A_i` (and the turn within
+//!    `MAX_TURN_DEG` for the velocity limits);
 //! 2. the product of two linear functions: `x K_i` bulges by `|dx dK_i| / 4` with
-//!    `dx = 2 u ds`, so `|u| ds |dK_i| / 2 <= `[`PRODUCT_SHARE`]` A_i`, with `|u|` bounded
+//!    `dx = 2 u ds`, so `|u| ds |dK_i| / 2 <= ``PRODUCT_SHARE`` A_i`, with `|u|` bounded
 //!    by the largest tangential acceleration the checked rows can allow ([`u_bound`]);
 //!    this term shrinks with the square of the half, so curvature that changes fast over
 //!    a short transition needs only a few intervals;
 //! 3. curvature that is not linear in `s` inside the half: checked at the half's own
 //!    midpoint (the interval's quarter points) against the chord of its end values,
-//!    within [`MAX_CURVATURE_BEND`] of the larger of the local curvature and the floor
+//!    within `MAX_CURVATURE_BEND` of the larger of the local curvature and the floor
 //!    `min_i A_i / x_env` (the curvature at which a speed `x_env` uses the smallest axis
 //!    acceleration; below it `x_env`, not the curvature, limits `x`), so
 //!    `x |dK| <= ` that share of `A`. `x_env` bounds `x` on the whole move: the speed cap
@@ -42,7 +42,7 @@
 //! 4. in jerk mode, the curvature rate: the jerk caps take it as the finite difference of
 //!    the curvature over each interval ([`super::jerk`]), which is its mean there, while
 //!    the jerk the setpoints show is `v^3` times its peak. A half whose two halves' rates
-//!    differ by `d` is bisected while `x_env^1.5 d / 2 > `[`RATE_BEND_SHARE`]` J_i` and it
+//!    differ by `d` is bisected while `x_env^1.5 d / 2 > ``RATE_BEND_SHARE`` J_i` and it
 //!    is longer than a period's travel at `x_env` (shorter, the finite differences see one
 //!    step, and its mean rate times `v^3` exceeds that step's `v^2 dK / T`). Terms
 //!    1-3 scale with the acceleration, which is small at a low feed: camotics_tiger at 3.73
@@ -85,31 +85,31 @@ use crate::path::{ExtraAxes, MoveKind};
 /// accelerations: a per-axis velocity limit checked at the ends is exceeded inside by at
 /// most `1 / cos(turn / 2) - 1` (6e-4), within the [`super::VAXIS_PLANNING_FACTOR`]
 /// reserve. The acceleration terms usually allow less (see [`TANGENT_SHARE`]).
-pub const MAX_TURN_DEG: f64 = 4.0;
+pub(crate) const MAX_TURN_DEG: f64 = 4.0;
 /// Share of the axis acceleration allowed for the tangent's rotation inside an interval
 /// (term 1 of the module doc): `|u| (1 - cos(turn / 2)) <= share A`.
-pub const TANGENT_SHARE: f64 = 0.001;
+pub(crate) const TANGENT_SHARE: f64 = 0.001;
 /// Longest half of a curved grid interval (mm).
-pub const MAX_CURVE_DS_MM: f64 = 0.5;
+pub(crate) const MAX_CURVE_DS_MM: f64 = 0.5;
 /// Fewest intervals per curved move (per knot span for NURBS), each checked at its ends
 /// and its midpoint. Two, so that a curved move between two stops has a grid point
 /// inside it (on one interval `x` is linear, so two ends at rest would leave no motion).
-pub const MIN_CURVE_INTERVALS: usize = 2;
+pub(crate) const MIN_CURVE_INTERVALS: usize = 2;
 /// Most intervals per move (a guard against absurd inputs).
-pub const MAX_CURVE_INTERVALS: usize = 1 << 20;
+pub(crate) const MAX_CURVE_INTERVALS: usize = 1 << 20;
 /// Accuracy (mm) of the arc lengths of curved intervals.
-pub const ARCLEN_ACCURACY_MM: f64 = 1e-10;
+pub(crate) const ARCLEN_ACCURACY_MM: f64 = 1e-10;
 /// Share of the axis acceleration allowed for the bulge of `x K_i` inside an interval
 /// (term 2 of the module doc).
-pub const PRODUCT_SHARE: f64 = 0.004;
+pub(crate) const PRODUCT_SHARE: f64 = 0.004;
 /// Largest distance of the curvature vector at the midpoints of an interval's halves from
 /// the
 /// chord of its end values, relative to the local curvature or the floor (term 3 of the
 /// module doc).
-pub const MAX_CURVATURE_BEND: f64 = 0.004;
+pub(crate) const MAX_CURVATURE_BEND: f64 = 0.004;
 /// Share of each axis's jerk limit allowed for the curvature rate a grid interval does
 /// not resolve (term 4 of the module doc, jerk mode only).
-pub const RATE_BEND_SHARE: f64 = 0.01;
+pub(crate) const RATE_BEND_SHARE: f64 = 0.01;
 /// Smallest parameter step of the interval refinement.
 const MIN_PARAM_STEP: f64 = 1e-9;
 /// Parameter offset used to read the curvature next to a zero-speed end.
@@ -255,10 +255,11 @@ mod index;
 mod joints;
 mod refine;
 
-pub use feeder::{IndexFeeder, MoveRef, RestRef, FEED_BATCH_MOVES};
-pub use generate::{
-    GridBatch, GridGen, GridPoint, GRID_BATCH_INTERVALS, GRID_BATCH_MOVES, GRID_QUEUE_BATCHES,
-};
+#[cfg(test)]
+pub(crate) use feeder::FEED_BATCH_MOVES;
+pub use feeder::{IndexFeeder, MoveRef, RestRef};
+pub(crate) use generate::GRID_QUEUE_BATCHES;
+pub use generate::{GridBatch, GridGen, GridPoint};
 pub use index::PathIndex;
 pub use joints::caps_of;
 pub use refine::{arc_step, u_bound};
