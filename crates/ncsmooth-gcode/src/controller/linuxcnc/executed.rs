@@ -32,8 +32,11 @@
 //!   and the fibres' ends on the line, and the distance to one programmed line is convex,
 //!   so over the slice it is at most its largest at those five points (the line nearest
 //!   the slice's middle; 1-Lipschitz bounds where that is an arc). At a join that is not
-//!   modelled, the halves of its two lines are measured the same way, plus the blend
-//!   counted.
+//!   modelled, the halves of its two moves are measured the same way, plus the blend
+//!   counted: a move written as programmed lies on the programmed path, and the pieces of
+//!   any other line or arc are held by convex sets (a line's ends; an arc piece's ends and
+//!   tangent point, widened by its spiral and helix over the piece), so the bound shrinks
+//!   with the square of the piece.
 //! * (b) every programmed vertex to the executed path: every member of a family runs from
 //!   one end of the largest arc to the other inside the region, so it crosses every
 //!   fibre. A vertex is therefore at most its distance to its nearest written point plus
@@ -287,12 +290,19 @@ pub fn linuxcnc_executed(
     // top, and every blend's region.
     let mut a = written_dev.output_to_programmed_mm;
     let mut prog = NearestIndex::new(programmed.moves().map(|m| &m.segment), flat);
+    let programmed_segs: Vec<&Segment> = programmed.moves().map(|m| &m.segment).collect();
     for (k, j) in joins.iter().enumerate() {
         match j {
             Join::Blend(b) => a = region_sup(b, &mut prog, a, slack),
             Join::Counted(extra) => {
                 let halves = [(moves[k].0, 0.5, 1.0), (moves[k + 1].0, 0.0, 0.5)];
                 for (seg, t0, t1) in halves {
+                    // A move written as programmed lies on the programmed path.
+                    let (_, src) = prog.nearest(seg.eval(0.5 * (t0 + t1)));
+                    if programmed_segs.get(src) == Some(&seg) {
+                        a = a.max(*extra);
+                        continue;
+                    }
                     // A curve's half: the written path's figure stands for it.
                     let sup = half_sup(seg, t0, t1, &mut prog, (a - extra).max(0.0), slack)
                         .unwrap_or(written_dev.output_to_programmed_mm);
@@ -407,9 +417,9 @@ fn half_sup(
     mut best: f64,
     slack: f64,
 ) -> Option<f64> {
-    let (len, straight) = match seg {
-        Segment::Line(l) => (l.length(), true),
-        Segment::Arc(a) => (a.max_speed(), false),
+    let len = match seg {
+        Segment::Line(l) => l.length(),
+        Segment::Arc(a) => a.max_speed(),
         _ => return None,
     };
     let mut stack = vec![(t0, t1)];
@@ -419,13 +429,27 @@ fn half_sup(
         let (f, near) = prog.nearest_line(seg.eval(tm));
         best = best.max(f);
         let lipschitz = f + 0.5 * len * (tb - ta);
-        let ub = match near.filter(|_| straight) {
-            Some(l) => l.dist_sq(seg.eval(ta)).max(l.dist_sq(seg.eval(tb))).sqrt(),
-            // A straight piece along a programmed arc: the arc's chord bound.
-            None if straight => prog
-                .arc_hull_bound(&[seg.eval(ta), seg.eval(tb)])
-                .unwrap_or(lipschitz),
-            None => lipschitz,
+        // A convex set holding the piece, up to `e`: a line's two ends, an arc's
+        // triangle ([`arc_piece_hull`]).
+        let hull = match seg {
+            Segment::Arc(a) => arc_piece_hull(a, ta, tb),
+            _ => Some(([seg.eval(ta), seg.eval(tb), seg.eval(tb)], 0.0)),
+        };
+        let ub = match (hull, near) {
+            // The distance to one programmed line is convex: at most its largest at the
+            // hull's corners.
+            (Some((h, e)), Some(l)) => {
+                h.iter().map(|&v| l.dist_sq(v)).fold(0.0, f64::max).sqrt() + e
+            }
+            // Along a programmed arc: the arc's chord bound.
+            (Some((h, e)), None) => prog.arc_hull_bound(&h).map_or(lipschitz, |b| b + e),
+            (None, _) => lipschitz,
+        };
+        // An arc's triangle may be the looser bound on a long piece.
+        let ub = if matches!(seg, Segment::Arc(_)) {
+            ub.min(lipschitz)
+        } else {
+            ub
         };
         if ub <= best + slack {
             continue;
@@ -440,6 +464,37 @@ fn half_sup(
         stack.push((tm, tb));
     }
     Some(best)
+}
+
+/// Largest half-turn (rad) of an arc piece that [`arc_piece_hull`] bounds by a triangle
+/// (its apex is `1 / cos` of it out from the arc).
+const MAX_HULL_HALF_TURN_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// A triangle holding the piece of `a` from `ta` to `tb` up to `e` (mm): the piece's ends
+/// and the meeting point of its end tangents, on the planar circle through its middle
+/// radius and height; `e` bounds how far the piece leaves that circle (its radius and its
+/// height change linearly along the parameter, by `spiral` and `axial` over the arc, so
+/// a point at `t` is within `|t - tm| |(spiral, axial)|` of the circle's point at the same
+/// angle). `None` for a piece turning by more than twice [`MAX_HULL_HALF_TURN_RAD`].
+fn arc_piece_hull(a: &ncsmooth::geom::Arc, ta: f64, tb: f64) -> Option<([Vec3; 3], f64)> {
+    let half = 0.5 * a.sweep * (tb - ta);
+    if !(half.abs() < MAX_HULL_HALF_TURN_RAD) {
+        return None;
+    }
+    let tm = 0.5 * (ta + tb);
+    let r = a.radius + a.spiral * tm;
+    let base = a.center + a.axial * tm;
+    let dir = |t: f64| {
+        let (s, c) = (a.sweep * t).sin_cos();
+        a.u * c + a.v * s
+    };
+    let hull = [
+        base + dir(ta) * r,
+        base + dir(tb) * r,
+        base + dir(tm) * (r / half.cos()),
+    ];
+    let e = 0.5 * (tb - ta) * a.spiral.hypot(a.axial.norm());
+    Some((hull, e))
 }
 
 /// A cell of [`region_sup`], ordered by its upper bound.

@@ -152,3 +152,59 @@ fn a_line_passing_near_a_blend_does_not_inflate_its_bound() {
         "{e:?}"
     );
 }
+
+/// Moves written as programmed (arcs and spirals too) add only the counted blend at the
+/// joins that are not modelled; an arc written beside the programmed one is measured by
+/// its pieces' triangles and settles on its offset.
+#[test]
+fn arcs_at_counted_joins_are_measured_not_given_up() {
+    let prog = "G21 G0 X0 Y0\nG1 X10 F600\nG3 X20 Y0 I5 J0\nG2 X30 Y0.002 I5 J0\nG1 X40\n";
+    let e = executed(prog, prog, 0.01, 0.003);
+    assert_eq!(e.blends_counted, 3, "{e:?}");
+    assert!(
+        (e.path_to_programmed_mm - 0.003).abs() < ACCURACY_MM,
+        "{e:?}"
+    );
+    // The first arc written 0.002 mm outside the programmed one (radius 5.002).
+    let written = "G21 G0 X0 Y0\nG1 X9.998 F600\nG3 X20.002 Y0 I5.002 J0\nG1 X20 Y0\n\
+                   G2 X30 Y0.002 I5 J0\nG1 X40\n";
+    let e = executed(written, prog, 0.01, 0.003);
+    assert!(
+        (e.path_to_programmed_mm - 0.005).abs() < 2.0 * ACCURACY_MM,
+        "{e:?}"
+    );
+}
+
+proptest::proptest! {
+    /// The triangle of an arc piece, widened by its `e`, holds the piece: the distance to
+    /// any line over the piece is at most its largest at the triangle's corners plus `e`.
+    #[test]
+    fn an_arc_piece_lies_in_its_triangle(
+        r in 0.1f64..50.0,
+        sweep in -6.0f64..6.0,
+        spiral in -0.5f64..0.5,
+        axial in -2.0f64..2.0,
+        t0 in 0.0f64..1.0,
+        w in 0.0f64..0.3,
+        l in proptest::array::uniform6(-60.0f64..60.0),
+    ) {
+        let a = ncsmooth::geom::Arc {
+            center: Vec3::new(1.0, -2.0, 0.5),
+            radius: r,
+            u: Vec3::X,
+            v: Vec3::Y,
+            sweep,
+            axial: Vec3::new(0.0, 0.0, axial),
+            spiral,
+        };
+        let t1 = (t0 + w).min(1.0);
+        let line = Line::new(Vec3::new(l[0], l[1], l[2]), Vec3::new(l[3], l[4], l[5]));
+        if let Some((hull, e)) = arc_piece_hull(&a, t0, t1) {
+            let bound = hull.iter().map(|&v| line.dist_sq(v)).fold(0.0, f64::max).sqrt() + e;
+            for i in 0..=50 {
+                let p = a.eval(t0 + (t1 - t0) * i as f64 / 50.0);
+                proptest::prop_assert!(line.dist_sq(p).sqrt() <= bound + 1e-9, "{i}");
+            }
+        }
+    }
+}
