@@ -478,7 +478,7 @@ const MAX_HULL_HALF_TURN_RAD: f64 = std::f64::consts::FRAC_PI_4;
 /// angle). `None` for a piece turning by more than twice [`MAX_HULL_HALF_TURN_RAD`].
 fn arc_piece_hull(a: &ncsmooth::geom::Arc, ta: f64, tb: f64) -> Option<([Vec3; 3], f64)> {
     let half = 0.5 * a.sweep * (tb - ta);
-    if !(half.abs() < MAX_HULL_HALF_TURN_RAD) {
+    if half.is_nan() || half.abs() >= MAX_HULL_HALF_TURN_RAD {
         return None;
     }
     let tm = 0.5 * (ta + tb);
