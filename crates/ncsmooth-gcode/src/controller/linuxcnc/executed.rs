@@ -353,12 +353,7 @@ fn region_sup(b: &BlendArc, prog: &mut NearestIndex, mut best: f64, slack: f64) 
         let hull = b.slice(t0, t1);
         // The distance to one programmed line is convex: over the slice, at most its
         // largest at the corners of a convex set holding it.
-        let over = |l: Line| {
-            hull.iter()
-                .map(|&v| l.dist_sq(v))
-                .fold(0.0, f64::max)
-                .sqrt()
-        };
+        let over = |l: Line| hull_dist(&l, &hull);
         let ub = match line {
             Some(l) => {
                 let ub = over(l);
@@ -429,27 +424,13 @@ fn half_sup(
         let (f, near) = prog.nearest_line(seg.eval(tm));
         best = best.max(f);
         let lipschitz = f + 0.5 * len * (tb - ta);
-        // A convex set holding the piece, up to `e`: a line's two ends, an arc's
-        // triangle ([`arc_piece_hull`]).
-        let hull = match seg {
-            Segment::Arc(a) => arc_piece_hull(a, ta, tb),
-            _ => Some(([seg.eval(ta), seg.eval(tb), seg.eval(tb)], 0.0)),
-        };
-        let ub = match (hull, near) {
-            // The distance to one programmed line is convex: at most its largest at the
-            // hull's corners.
-            (Some((h, e)), Some(l)) => {
-                h.iter().map(|&v| l.dist_sq(v)).fold(0.0, f64::max).sqrt() + e
-            }
-            // Along a programmed arc: the arc's chord bound.
-            (Some((h, e)), None) => prog.arc_hull_bound(&h).map_or(lipschitz, |b| b + e),
-            (None, _) => lipschitz,
-        };
-        // An arc's triangle may be the looser bound on a long piece.
-        let ub = if matches!(seg, Segment::Arc(_)) {
-            ub.min(lipschitz)
-        } else {
-            ub
+        // The piece's bound over a convex set holding it: a line's two ends; an arc's
+        // triangle ([`arc_piece_hull`]), which may be the looser bound on a long piece.
+        let ub = match seg {
+            Segment::Arc(a) => arc_piece_hull(a, ta, tb).map_or(lipschitz, |(h, e)| {
+                hull_bound(prog, &h, e, near, lipschitz).min(lipschitz)
+            }),
+            _ => hull_bound(prog, &[seg.eval(ta), seg.eval(tb)], 0.0, near, lipschitz),
         };
         if ub <= best + slack {
             continue;
@@ -464,6 +445,32 @@ fn half_sup(
         stack.push((tm, tb));
     }
     Some(best)
+}
+
+/// Largest distance from the points `hull` to the line `l`: over their convex hull the
+/// distance to one line (convex) is at most that.
+fn hull_dist(l: &Line, hull: &[Vec3]) -> f64 {
+    hull.iter()
+        .map(|&v| l.dist_sq(v))
+        .fold(0.0, f64::max)
+        .sqrt()
+}
+
+/// An upper bound on the distance to the programmed path over a set within `e` of the
+/// convex hull of `hull`: [`hull_dist`] to `near`, the programmed line nearest the last
+/// query, or along a programmed arc its chord bound ([`NearestIndex::arc_hull_bound`]);
+/// `fallback` when neither applies.
+fn hull_bound(
+    prog: &NearestIndex,
+    hull: &[Vec3],
+    e: f64,
+    near: Option<Line>,
+    fallback: f64,
+) -> f64 {
+    match near {
+        Some(l) => hull_dist(&l, hull) + e,
+        None => prog.arc_hull_bound(hull).map_or(fallback, |b| b + e),
+    }
 }
 
 /// Largest half-turn (rad) of an arc piece that [`arc_piece_hull`] bounds by a triangle
