@@ -19,10 +19,10 @@
 //! 1. The trapezoid planner ([`super::lookahead`]) plans `s(t)` with a *scalar* tangential
 //!    acceleration limit `|s''| <= U` ([`JerkCaps::u_max_mm_s2`]), `U` at most
 //!    `u_share min_i A_i` (planning factor applied; [`JerkSplit`], by default
-//!    `1 - ``CURVATURE_ACC_SHARE`), and the curvature limit
+//!    `1 - ` `CURVATURE_ACC_SHARE` (0.7)), and the curvature limit
 //!    `U |T_i| + v^2 |K_i| <= A_i` at each point. `U` also sets the window of point 2,
 //!    `W = 2 U / J_t` with `J_t = jt_share min_i J_i` (by default
-//!    `TANGENTIAL_JERK_SHARE`), and a rest-to-rest ramp to the top speed `V` costs
+//!    `TANGENTIAL_JERK_SHARE` (0.5)), and a rest-to-rest ramp to the top speed `V` costs
 //!    `V / U` in the plan plus `W` in the filter; `V / U + 2 U / J_t` is least at
 //!    `U* = sqrt(V J_t / 2)`. So `U = min(u_share A, U*)`, with `V` the larger of the
 //!    feed and rapid rates. At the usual settings (50 mm/s, 500 mm/s^2, 5000 mm/s^3)
@@ -48,8 +48,8 @@
 //!    position of its two neighbouring intervals, so the speed anywhere inside an
 //!    interval (linear in `v^2` on curves, at most the inside cap on lines) holds the
 //!    dilated cap of every position in it. Lines are cut in jerk mode (every
-//!    `MAX_CURVE_DS_MM`, and geometrically finer towards their ends from
-//!    `LINE_CUT_MIN_MM`) so that a low cap at a corner does not slow a whole line. A
+//!    `MAX_CURVE_DS_MM` (0.5), and geometrically finer towards their ends from
+//!    `LINE_CUT_MIN_MM` (1e-3)) so that a low cap at a corner does not slow a whole line. A
 //!    low cap thus spreads only
 //!    over the short distance covered at its own low speed. Then the filtered motion
 //!    holds every cap at its own position: feed, per-axis velocity, curvature
@@ -111,11 +111,11 @@
 //!
 //! ## Finite-difference noise
 //! Positions are printed to 1e-9 mm and the interpolator lands on the planned arc length
-//! to `ARC_CORRECTION_TOL_MM`: a third difference of such errors is up to
-//! `JERK_NOISE_MM``/T^3` (8 mm/s^3 at T = 1 ms, 1 mm/s^3 at T = 2 ms). The jerk limits
+//! to `ARC_CORRECTION_TOL_MM` (1e-9): a third difference of such errors is up to
+//! `JERK_NOISE_MM` (8e-9)`/T^3` (8 mm/s^3 at T = 1 ms, 1 mm/s^3 at T = 2 ms). The jerk limits
 //! are planned at `0.99 J - JERK_NOISE_MM / T^3` ([`planned_jerk`]), so the measured
 //! finite-difference jerk holds the limit itself, not only up to the noise. A limit for
-//! which that leaves less than `MIN_LIMIT_FRACTION` of `J` (below
+//! which that leaves less than `MIN_LIMIT_FRACTION` (0.5) of `J` (below
 //! [`min_jerk_mm_s3`], 16.3 mm/s^3 at 1 ms) is refused by
 //! [`super::PlanOptions::validate`]: the printed setpoints cannot show it held.
 //!
@@ -167,7 +167,7 @@ pub fn planned_jerk(j: f64, period_s: f64) -> f64 {
 }
 
 /// Smallest jerk limit (mm/s^3) held at period `period_s`: below it [`planned_jerk`] would
-/// be less than `MIN_LIMIT_FRACTION` of the limit.
+/// be less than `MIN_LIMIT_FRACTION` (0.5) of the limit.
 pub fn min_jerk_mm_s3(period_s: f64) -> f64 {
     JERK_NOISE_MM / period_s.powi(3) / (JERK_PLANNING_FACTOR - super::MIN_LIMIT_FRACTION)
 }

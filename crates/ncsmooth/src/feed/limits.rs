@@ -10,7 +10,7 @@ use crate::geom::Vec3;
 pub(crate) const NEGLIGIBLE: f64 = 1e-12;
 
 /// The limits as the planner uses them (accelerations already scaled by
-/// `ACC_PLANNING_FACTOR`).
+/// `ACC_PLANNING_FACTOR` (0.99)).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Caps {
     /// Per-axis acceleration (mm/s^2).

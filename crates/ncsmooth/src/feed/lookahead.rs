@@ -2,11 +2,11 @@
 //! [`crate::feed`] doc for why a committed prefix is final), producing the speed profile
 //! as a stream of constant-acceleration pieces ([`ProfilePiece`]) and stops.
 //!
-//! On programs of at least `GRID_THREAD_MIN_MOVES` moves (and more than one core) the
+//! On programs of at least `GRID_THREAD_MIN_MOVES` (4096) moves (and more than one core) the
 //! grid of the moves ahead is computed on a second thread ([`GridGen::produce`]) while
 //! this one runs the passes: each move's grid depends on that move alone, so the plan is
 //! the same bit for bit (tested), and the producer runs at most
-//! `GRID_QUEUE_BATCHES` batches ahead.
+//! `GRID_QUEUE_BATCHES` (16) batches ahead.
 
 use super::grid::{GridGen, GridPoint, PathIndex};
 use super::limits::Interval;

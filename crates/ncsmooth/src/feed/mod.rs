@@ -54,32 +54,32 @@
 //! do not oscillate.
 //!
 //! ## Choices where the papers are loose
-//! * The acceleration limits are planned at `ACC_PLANNING_FACTOR` of the given value, a
+//! * The acceleration limits are planned at `ACC_PLANNING_FACTOR` (0.99) of the given value, a
 //!   1 % reserve for what happens between the grid checks and for the interpolator's
 //!   sub-micrometre position errors (both show up in finite differences); the per-axis
-//!   velocity limits likewise at `VAXIS_PLANNING_FACTOR`.
+//!   velocity limits likewise at `VAXIS_PLANNING_FACTOR` (0.999).
 //!
 //! ## Limits the setpoints can show ([`PlanOptions::validate`])
 //! The limits are measured on the setpoints as printed (positions to
-//! `PRINT_RESOLUTION_MM`) by finite differences at the period `T`, and must hold there
+//! `PRINT_RESOLUTION_MM` (1e-9)) by finite differences at the period `T`, and must hold there
 //! without any allowance ([`crate::interp::PlanReport::limits_held`]). Rounding and the
 //! interpolator's arc-length landing put errors of up to half a print unit on every
 //! position; a `k`-th difference weighs them with binomial weights, so it shows up to
-//! `VEL_NOISE_MM`` / T`, `ACC_NOISE_MM`` / T^2` and `jerk::JERK_NOISE_MM`` / T^3`
+//! `VEL_NOISE_MM` (2e-9)` / T`, `ACC_NOISE_MM` (4e-9)` / T^2` and `jerk::JERK_NOISE_MM` ` / T^3`
 //! of velocity, acceleration and jerk on a motion that holds its limit exactly. Each
 //! limit is therefore planned with that noise deducted on top of the share the grid's
 //! between-check terms need ([`planned_acc`], [`planned_vaxis`], [`jerk::planned_jerk`]);
 //! at the usual settings the relative reserves above are larger and nothing changes.
-//! A limit so small that the deduction would leave less than `MIN_LIMIT_FRACTION` of it
+//! A limit so small that the deduction would leave less than `MIN_LIMIT_FRACTION` (0.5) of it
 //! is **refused** ([`PlanOptionsError::Unresolvable`], with the smallest value that can
 //! be held): no motion printed at that resolution and period can show it (any motion
 //! from rest needs a third difference of at least one print unit somewhere, i.e. a
 //! jerk of `1e-9 / T^3` mm/s^3, 1 mm/s^3 at 1 ms). The floors scale as `1/T`, `1/T^2`
 //! and `1/T^3`: a longer period resolves smaller limits. The feed and rapid rates are
 //! commanded speeds, planned at their value; the measured axis speeds may exceed them by
-//! the first difference's noise, `VEL_NOISE_MM`` / T` (a jerk-filtered run at the feed
+//! the first difference's noise, `VEL_NOISE_MM` (2e-9)` / T` (a jerk-filtered run at the feed
 //! showed 1.17 print units per period on camotics_tiger), and a rate is refused when one
-//! print unit per period is more than `FEED_NOISE_SHARE` of it.
+//! print unit per period is more than `FEED_NOISE_SHARE` (1e-3) of it.
 //! * Every stop is held until the next period boundary, so the stop point itself is a
 //!   setpoint (the corner is not cut between two setpoints) and the next motion starts on
 //!   the period grid.
@@ -135,7 +135,7 @@ pub(crate) const MIN_LIMIT_FRACTION: f64 = 0.5;
 pub(crate) const FEED_NOISE_SHARE: f64 = 1e-3;
 
 /// The acceleration limit `a` (mm/s^2) as planned at period `period_s` (s): the
-/// `ACC_PLANNING_FACTOR` reserve, or the grid's share plus the finite-difference noise
+/// `ACC_PLANNING_FACTOR` (0.99) reserve, or the grid's share plus the finite-difference noise
 /// when that is larger (see the module doc).
 pub fn planned_acc(a: f64, period_s: f64) -> f64 {
     (ACC_PLANNING_FACTOR * a)
@@ -149,7 +149,7 @@ pub fn planned_vaxis(v: f64, period_s: f64) -> f64 {
 }
 
 /// Smallest acceleration limit (mm/s^2) held at period `period_s`: below it
-/// [`planned_acc`] would be less than `MIN_LIMIT_FRACTION` of the limit.
+/// [`planned_acc`] would be less than `MIN_LIMIT_FRACTION` (0.5) of the limit.
 pub fn min_acc_mm_s2(period_s: f64) -> f64 {
     ACC_NOISE_MM / (period_s * period_s) / (1.0 - ACC_CHECK_SHARE - MIN_LIMIT_FRACTION)
 }
@@ -160,7 +160,7 @@ pub fn min_vaxis_mm_s(period_s: f64) -> f64 {
 }
 
 /// Smallest feed or rapid rate (mm/s) at period `period_s`: one print unit per period is
-/// `FEED_NOISE_SHARE` of it.
+/// `FEED_NOISE_SHARE` (1e-3) of it.
 pub fn min_feed_mm_s(period_s: f64) -> f64 {
     PRINT_RESOLUTION_MM / period_s / FEED_NOISE_SHARE
 }
@@ -387,7 +387,7 @@ impl PlanOptions {
         tp.moves().map(|m| self.move_floor_s(m)).sum()
     }
 
-    /// The least time (s) move `m` takes: its length (to `ESTIMATE_ACCURACY_MM`) at its
+    /// The least time (s) move `m` takes: its length (to `ESTIMATE_ACCURACY_MM` (1e-6)) at its
     /// speed cap (see [`PlanOptions::min_cycle_time_s`]).
     pub fn move_floor_s(&self, m: &crate::path::Move) -> f64 {
         use crate::geom::ParamCurveArclen;

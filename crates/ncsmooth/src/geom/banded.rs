@@ -12,7 +12,7 @@
 
 //!
 //! [`SymBanded`] is the second solver here: a symmetric positive definite matrix of
-//! half-bandwidth [`BAND`] (the quadratic forms of a cubic B-spline, as in the band fit of
+//! half-bandwidth [`BAND`] (3) (the quadratic forms of a cubic B-spline, as in the band fit of
 //! `smooth::band_fit`), stored by its lower band and solved by Cholesky. It is kept beside
 //! the general solver, not replaced by it, because it stores half the band, needs no pivot
 //! search, and is factored once and solved many times (once per ADMM iteration), each solve
@@ -152,7 +152,7 @@ impl BandedMatrix {
 /// points at most 3 apart.
 pub(crate) const BAND: usize = 3;
 
-/// A symmetric matrix with half-bandwidth [`BAND`], stored by its lower band:
+/// A symmetric matrix with half-bandwidth [`BAND`] (3), stored by its lower band:
 /// `a[i][k] = A[i][i - BAND + k]`.
 #[derive(Clone, Debug)]
 pub(crate) struct SymBanded {

@@ -51,7 +51,7 @@
 //! Lines are stepped exactly (`u = (s - s0)/len`): Newton would converge in zero iterations.
 //! The chord solve lands on the planned arc length to within `(L kappa)^2` effects of the
 //! curvature's variation and the method's own error; where it misses by more than
-//! `ARC_CORRECTION_TOL_MM`, a safeguarded Newton step on arc length puts the setpoint
+//! `ARC_CORRECTION_TOL_MM` (1e-9), a safeguarded Newton step on arc length puts the setpoint
 //! back on the plan (counted in [`InterpStats::arc_corrections`]; eta is that of the
 //! chord solve, as in the paper). The correction is on by default
 //! ([`InterpOptions::arc_correction`]); with it off the setpoints are the method's own,
@@ -59,7 +59,7 @@
 //! [`InterpStats::feed_fluctuation_max`] and the finite differences then show each
 //! method's error (measured figures in the tests of this module).
 //!
-//! `eta` is recorded on steps longer than `ETA_MIN_STEP_MM`: below that the rounding of
+//! `eta` is recorded on steps longer than `ETA_MIN_STEP_MM` (1e-6): below that the rounding of
 //! the coordinates themselves dominates the ratio.
 
 mod follow;
@@ -142,7 +142,7 @@ pub struct InterpOptions {
     /// Newton iterations n. Default 2.
     pub max_iters: usize,
     /// Stopping rule of eq. 20. `false` (default): stop when `eta <= eta_tol` **and**
-    /// `k >= n` (eq. 20 as printed; at most `NEWTON_HARD_CAP` iterations). `true`: stop
+    /// `k >= n` (eq. 20 as printed; at most `NEWTON_HARD_CAP` (20) iterations). `true`: stop
     /// when either holds (the common reading, cheaper, but it leaves position errors up to
     /// `eta_tol L` that show as finite-difference acceleration noise; see the module doc).
     pub stop_on_either: bool,
@@ -219,7 +219,7 @@ pub struct InterpStats {
     /// Steps solved by the arc-length fallback.
     pub fallback_steps: usize,
     /// Steps whose chord solution missed the planned arc length by more than
-    /// `ARC_CORRECTION_TOL_MM` and were corrected on arc length.
+    /// `ARC_CORRECTION_TOL_MM` (1e-9) and were corrected on arc length.
     pub arc_corrections: usize,
     /// Largest miss (mm) of a step's solution from the planned arc length, before any
     /// correction: the method's own accuracy.

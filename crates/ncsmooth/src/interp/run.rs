@@ -183,7 +183,7 @@ pub struct AxisReport {
     /// Velocity limit (mm/s): `--vaxis`, else the larger of feed and rapid.
     pub v_limit_mm_s: f64,
     /// `v_max <= v_limit`; when the limit is the feed (no `--vaxis`), up to the first
-    /// difference's noise `VEL_NOISE_MM`` / T`.
+    /// difference's noise `VEL_NOISE_MM` (2e-9)` / T`.
     pub v_within: bool,
     /// Largest finite-difference acceleration (mm/s^2).
     pub a_max_mm_s2: f64,

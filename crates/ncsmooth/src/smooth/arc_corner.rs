@@ -32,7 +32,7 @@
 //!   emitted (its direction would be round-off).
 //! * Zero-length moves (shorter than [`DEGENERATE_MM`]) carry no direction: they are
 //!   skipped and the corner is formed by their neighbours.
-//! * Micro-legs (lines no longer than `MICRO_LEG_SHARE`` tol`, a CAM file's quantisation
+//! * Micro-legs (lines no longer than `MICRO_LEG_SHARE` (0.02)` tol`, a CAM file's quantisation
 //!   such as camotics_vcarve's 1e-6 inch steps) between two longer lines are one corner at
 //!   the run's middle point, the transitions' tolerance reduced by the shift; each of their
 //!   corners would need an arc below `min_radius_mm` and stop (camotics_vcarve: 99 stops

@@ -13,7 +13,7 @@
 //! planner allows for):
 //!
 //! * [`BlendCurve::Bezier`] (B-spline and Wu methods): the cubic with control points `A'`,
-//!   `A' + h T_A`, `B' - h T_B`, `B'`, `h = ``BLEND_HANDLE_SHARE`` d`: on two lines this
+//!   `A' + h T_A`, `B' - h T_B`, `B'`, `h = ` `BLEND_HANDLE_SHARE` ` d`: on two lines this
 //!   is the corner Bezier with its inner control points on the legs, which misses the
 //!   corner by `d sin(turn/2) / 2`.
 //! * [`BlendCurve::Trig`] (Tao's method): the trigonometric Hermite segment
@@ -22,14 +22,14 @@
 //!
 //! ## Tolerance and search
 //! The blend replaces the pieces `A' Q` and `Q B'`; its two-sided deviation from them is
-//! measured ([`deviation_segments`], accuracy `BLEND_MEASURE_SHARE` of `tol`) and must be
+//! measured ([`deviation_segments`], accuracy `BLEND_MEASURE_SHARE` (0.05) of `tol`) and must be
 //! within `tol` with the accuracy added. As those pieces are part of the programmed path
 //! and `Q` is the only programmed vertex they hold, this bounds both sides of the contract.
 //! `d` starts at `1.8 tol / sin(turn/2)` (the corner Bezier's own bound, with a margin),
-//! at most `BLEND_LINE_SHARE` of a line and `BLEND_ARC_SHARE` of an arc (the rest is
+//! at most `BLEND_LINE_SHARE` (0.45) of a line and `BLEND_ARC_SHARE` (0.25) of an arc (the rest is
 //! left to the joint or corner at the move's other end, and input arcs stay mostly
 //! exact), and halves until the measurement holds; a joint that
-//! never holds within `BLEND_TRIES` halvings stays an exact stop.
+//! never holds within `BLEND_TRIES` (48) halvings stays an exact stop.
 //!
 //! ## Trimmed arcs as written
 //! What is left of a trimmed arc is an exact piece of it, but G-code states an arc by its
@@ -41,7 +41,7 @@
 //! with the writer's rounding (ends to 1e-4 mm, centre to 1e-6 mm), the read-back arc
 //! stays within 7e-5 mm of the exact one up to a half turn, 8e-5 at 270 degrees, and then
 //! grows: 1.5e-4 at 315, 6e-4 at 350, 6e-3 at 359 degrees. So a trimmed arc sweeping more
-//! than `MAX_TRIMMED_ARC_SWEEP_RAD` is emitted as that many equal arcs of the same
+//! than `MAX_TRIMMED_ARC_SWEEP_RAD` (pi) is emitted as that many equal arcs of the same
 //! circle (tangent and curvature continuous joints), each within the rounding the caller
 //! budgets for. Untrimmed input arcs are emitted as they are.
 //!

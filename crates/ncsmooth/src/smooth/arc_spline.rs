@@ -19,8 +19,8 @@
 //! ## The fit ([`arc_spline`])
 //! Each cubic piece `[t0, t1]` gets a biarc on its end points and tangents; the piece is
 //! halved until the biarc is within `max_dev_mm` of the piece and each arc's curvature
-//! vector is within `CURVATURE_SHARE` of the piece's largest curvature on the arc's half
-//! (plus `CURVATURE_FLOOR_PER_MM`) at every sample, down to `MIN_ARC_MM`: the steps
+//! vector is within `CURVATURE_SHARE` (0.02) of the piece's largest curvature on the arc's half
+//! (plus `CURVATURE_FLOOR_PER_MM` (1e-3)) at every sample, down to `MIN_ARC_MM` (0.01): the steps
 //! between consecutive arcs are then small against the curvature, which is what a
 //! jerk-limited plan pays for (`v^2 dk` per period against `J T`; with `v^2 <= A / k` on
 //! a curve, a relative step of `J T / A`, 2 % at 3000 mm/s^2, 60000 mm/s^3, 1 ms). An

@@ -28,7 +28,7 @@
 //! Subject to, at sample parameters:
 //! * `C(u_i)` in the ball of radius `r` around `Q_i` (the vertex side of the contract);
 //! * `C(v)` in the capsule of radius `r` around the chord `Q_j Q_(j+1)` whose parameter
-//!   range holds `v`, at `SPAN_SAMPLES` parameters per knot span (the output side),
+//!   range holds `v`, at `SPAN_SAMPLES` (2) parameters per knot span (the output side),
 //!
 //! with `r = band_share * tol`. Balls and capsules are convex and `C(v)` is linear in the
 //! control points, so this is a convex QP: its minimiser is the smoothest curve of the
@@ -38,11 +38,11 @@
 //! The alternating direction method of multipliers in the form of OSQP (Stellato et al.
 //! 2020) with the projections onto the sets done exactly: `x`-update
 //! `(P + rho A^T A) x = rho A^T (z - y)` (a banded Cholesky, factored once per `rho`,
-//! solved for the three coordinates at once), over-relaxation `alpha = ``ADMM_ALPHA`,
+//! solved for the three coordinates at once), over-relaxation `alpha = ` `ADMM_ALPHA` (1.6),
 //! `z` = projection onto the ball or capsule of each row, scaled dual `y`. `rho` is
-//! balanced every `RHO_EVERY` iterations against the primal and dual residuals. The
+//! balanced every `RHO_EVERY` (5) iterations against the primal and dual residuals. The
 //! iteration starts from the polyline itself and stops when the samples are within the
-//! band up to `PRIMAL_SHARE` of `tol` and the control points have settled (and, when
+//! band up to `PRIMAL_SHARE` (1e-2) of `tol` and the control points have settled (and, when
 //! set, the penalty has stopped falling: [`BandFitOptions::energy_settle_share`]). The
 //! initial knots are the points' parameters (at least
 //! [`BandFitOptions::min_knot_span_mm`] apart).
@@ -156,12 +156,12 @@ pub struct BandFitOptions {
     /// Shortest initial knot span (mm; at most an eighth of the run): the points' knots
     /// closer than this to the last one kept are left out (refinement may split spans
     /// again where the band needs it). Default 0: a knot at every point;
-    /// [`BandFitOptions::converged`] sets `MIN_KNOT_SPAN_MM`.
+    /// [`BandFitOptions::converged`] sets `MIN_KNOT_SPAN_MM` (0.02).
     pub min_knot_span_mm: f64,
     /// A solve inside the band stops only once the penalty `E(C)` changed by less than
-    /// this share of itself over the last `RHO_EVERY` iterations (as well as the control
+    /// this share of itself over the last `RHO_EVERY` (5) iterations (as well as the control
     /// points having settled). Default 0: the first settled iterate;
-    /// [`BandFitOptions::converged`] sets `ENERGY_SETTLE_SHARE`.
+    /// [`BandFitOptions::converged`] sets `ENERGY_SETTLE_SHARE` (1e-4).
     pub energy_settle_share: f64,
 }
 
@@ -226,9 +226,9 @@ impl Default for BandFitOptions {
 
 impl BandFitOptions {
     /// The fit run to its minimum (see Limits in the module doc): initial knot spans of at
-    /// least `MIN_KNOT_SPAN_MM` and the stop on the penalty (`ENERGY_SETTLE_SHARE`).
+    /// least `MIN_KNOT_SPAN_MM` (0.02) and the stop on the penalty (`ENERGY_SETTLE_SHARE` (1e-4)).
     /// What `ncsmooth smooth` uses for LinuxCNC, whose blends follow the written curve's
-    /// own radius (with the merging of `MERGE_SHARE`). Not the default: it costs
+    /// own radius (with the merging of `MERGE_SHARE` (0.3)). Not the default: it costs
     /// computing time, and on other paths it plans no faster (figures in
     /// `docs/benchmarks/2026-12-02.md`).
     pub fn converged() -> BandFitOptions {
@@ -254,7 +254,7 @@ pub struct RunOptions {
     pub fit: BandFitOptions,
     /// Share of the method's tolerance within which nearly collinear lines are merged
     /// before a chain is smoothed ([`super::simplify`]; the method then smooths within
-    /// the rest). Default `MERGE_SHARE`; 0 merges nothing. Applies only with `enabled`.
+    /// the rest). Default `MERGE_SHARE` (0.3); 0 merges nothing. Applies only with `enabled`.
     pub merge_share: f64,
 }
 

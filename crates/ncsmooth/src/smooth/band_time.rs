@@ -45,9 +45,9 @@
 //!    until they meet the cached profile again.
 //! 5. **Acceptance.** The reshaped curve is measured exactly against the run's polyline
 //!    ([`crate::verify::deviation_segments`]); a window is kept only when the deviation
-//!    is within the tolerance, the model time fell by at least `MIN_GAIN_S`, and the
-//!    reshaped part neither turns much more than the fit did (`MAX_EXTRA_TURN_RAD`: no
-//!    loop) nor slows its parameter to a cusp (`MIN_SPEED_SHARE`).
+//!    is within the tolerance, the model time fell by at least `MIN_GAIN_S` (1e-5), and the
+//!    reshaped part neither turns much more than the fit did (`MAX_EXTRA_TURN_RAD` (std::f64::consts::FRACPI2): no
+//!    loop) nor slows its parameter to a cusp (`MIN_SPEED_SHARE` (0.5)).
 //!
 //! ## Limits
 //! The optimisation is local (a start at the band fit, a fixed knot layout); the model

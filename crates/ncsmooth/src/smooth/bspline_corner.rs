@@ -98,7 +98,7 @@
 //! sampled every few tenths of a millimetre, one transition per vertex makes the curvature
 //! go straight, blend, straight, blend, with peaks far above the sampled curve's. With
 //! [`SmoothOptions::run`] enabled (the default), runs of micro-corners (turns up to
-//! `RUN_MAX_TURN_DEG` between lines of similar length) are first replaced
+//! `RUN_MAX_TURN_DEG` (105.0) between lines of similar length) are first replaced
 //! by one cubic B-spline through the whole two-sided band ([`super::band_fit`]: the curve
 //! of least curvature and curvature variation within the band), carried as the cubic
 //! Béziers of its knot spans like the transitions here. What follows the paper: the curve

@@ -36,8 +36,8 @@
 //! ## Run mode (an extension)
 //! With [`SmoothOptions::run`] enabled (the default) steps 1 and 3 change; the rest is the
 //! paper's. Screening uses [`ScreenOptions::run_mode`]: the chord-error condition of eq. 6
-//! is relaxed to `RUN_CHORD_SHARE` times the tolerance and turns up to
-//! `RUN_MAX_TURN_DEG` qualify, so the sampled tips of a curve stay in its
+//! is relaxed to `RUN_CHORD_SHARE` (8.0) times the tolerance and turns up to
+//! `RUN_MAX_TURN_DEG` (105.0) qualify, so the sampled tips of a curve stay in its
 //! run instead of becoming arc corners. The run is fitted not by interpolating its
 //! vertices (which makes the curve follow every sample and bulge between them) but by the
 //! cubic B-spline of least curvature and curvature variation within the two-sided band

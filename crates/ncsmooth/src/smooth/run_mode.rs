@@ -27,12 +27,12 @@
 //!   the stubs.
 //! * [`Family::Trig`] (Tao): one cubic trigonometric segment per cubic piece of the
 //!   B-spline, in Tao's Hermite form (`k = -1`, eq. 3) on a short parameter window
-//!   ([`trig_window`], `TRIG_WINDOW`, `lambda = ``TRIG_LAMBDA`) with the piece's end
+//!   ([`trig_window`], `TRIG_WINDOW` (0.05), `lambda = ` `TRIG_LAMBDA` (1.0)) with the piece's end
 //!   points and end derivatives: G1 at the joints and G2 up to the window's small error;
 //!   measured against the band like the B-spline (a fit a little inside the band,
-//!   `TRIG_BAND_MARGIN`, leaves it room).
+//!   `TRIG_BAND_MARGIN` (0.01), leaves it room).
 //! * [`Family::Arcs`] (Wu's arc transitions, `--method arc`): tangent-continuous arcs
-//!   along the B-spline ([`super::arc_spline`], biarcs within half of `ARC_BAND_MARGIN`
+//!   along the B-spline ([`super::arc_spline`], biarcs within half of `ARC_BAND_MARGIN` (0.04)
 //!   of the tolerance, split until consecutive arcs differ little in curvature): G1 at the
 //!   joints with curvature steps of a few per cent, where one arc per corner steps between
 //!   zero and `1/R` at every leg.
@@ -310,7 +310,7 @@ fn bezier_pieces(f: &Fitted) -> Vec<(Segment, f64, f64)> {
 /// applied to a cubic piece: on a short window the basis `{C^3, S^3, S^2, C, S, 1}`
 /// spans the cubics up to `O(eps)`, so the segment follows the cubic Hermite curve with
 /// the same end data (a Bézier piece of the run's B-spline) closely, curvature included
-/// (`TRIG_WINDOW`; measured by the caller). `None` when the system is singular.
+/// (`TRIG_WINDOW` (0.05); measured by the caller). `None` when the system is singular.
 pub fn trig_window(
     p0: Vec3,
     d0: Vec3,

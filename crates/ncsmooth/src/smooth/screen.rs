@@ -101,8 +101,8 @@ impl Default for ScreenOptions {
 
 impl ScreenOptions {
     /// The screening of the methods' run mode ([`super::band_fit`]): micro-corners turning
-    /// by up to `RUN_MAX_TURN_DEG` between lines of any lengths (`RUN_RATIO_MAX`)
-    /// whose chord error (eq. 6) is at most `RUN_CHORD_SHARE` times the tolerance. The band fit measures its own deviation, so the chord error need not
+    /// by up to `RUN_MAX_TURN_DEG` (105.0) between lines of any lengths (`RUN_RATIO_MAX` (unbounded))
+    /// whose chord error (eq. 6) is at most `RUN_CHORD_SHARE` (8.0) times the tolerance. The band fit measures its own deviation, so the chord error need not
     /// leave room for a curve through the vertices: it only keeps coarse polygons (long
     /// lines turning by a few degrees, where a curve would have to hug every line) out of
     /// the runs.

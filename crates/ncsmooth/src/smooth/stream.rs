@@ -18,7 +18,7 @@
 //! exactly that of [`super::smooth`].
 //!
 //! With a window, the per-run lists of [`SmoothReport`] keep their first
-//! `MAX_LISTED_RUNS` entries (the counts are complete).
+//! `MAX_LISTED_RUNS` (10000) entries (the counts are complete).
 
 use super::band_time::{TimeLimits, TimeShapeOptions};
 use super::{smooth_chain, Chain, Method, OptionsError, SmoothOptions, SmoothReport, Smoothed};

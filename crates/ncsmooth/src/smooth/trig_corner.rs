@@ -92,7 +92,7 @@
 //! `B` along the outgoing direction, so the corner is cut exactly. Its excursion (largest
 //! distance from `B`) is `tau e`, `e` measured at `tau = 1`; `tau = loop_size (1 -
 //! CORNER_TOL_MARGIN) / e`. `lambda` per `beta` comes from a table (entries computed on first use): on a grid
-//! of `LOOP_LAMBDA_MIN`..`LOOP_LAMBDA_MAX` the value with the lowest peak curvature at
+//! of `LOOP_LAMBDA_MIN` (-1.0)..`LOOP_LAMBDA_MAX` (2.0) the value with the lowest peak curvature at
 //! a given excursion, among shapes that turn one way only. Loops are used for turns in
 //! `[loop_min_turn_deg, LOOP_MAX_TURN_DEG]`; below, a loop would be a near full circle for
 //! a corner the tolerance can simply round; above, `B1`, `B2` and `B` become collinear (at

@@ -19,7 +19,7 @@ pub(crate) const FEED_BATCH_MOVES: usize = 4096;
 /// Indexes a program that arrives block by block into the [`MoveWindow`] of a streamed
 /// [`super::PathIndex`]: each move's length and joint, its stop, extra-axis rests, exactly as
 /// [`super::PathIndex::new`] indexes a whole program (same functions, same order), a batch of
-/// `FEED_BATCH_MOVES` at a time. The last move indexed is held back until the next one
+/// `FEED_BATCH_MOVES` (4096) at a time. The last move indexed is held back until the next one
 /// (its joint) or the end is known.
 pub struct IndexFeeder<'o> {
     builder: IndexBuilder<'o>,

@@ -4,7 +4,7 @@
 //! Lines are one straight interval each (their limits are constant along them, and the
 //! profile inside a straight interval may accelerate, cruise and decelerate, so no
 //! subdivision is needed). Arcs and curves are first cut uniformly in their parameter
-//! (halves no longer than about `MAX_CURVE_DS_MM`, at least `MIN_CURVE_INTERVALS` per
+//! (halves no longer than about `MAX_CURVE_DS_MM` (0.5), at least `MIN_CURVE_INTERVALS` (2) per
 //! move, per knot span for NURBS); their arc lengths come from the chords and end tangents
 //! of the halves (`arc_from_chord`), the move's total from adaptive quadrature at
 //! `ARCLEN_ACCURACY_MM` (the last interval takes the remainder).
@@ -16,19 +16,19 @@
 //! all of these are linear in the interval's two end values of `x`. On each half `a_i`
 //! then differs from the straight line between its two checked values by three terms,
 //! and an interval is bisected until each term is a small share of `A_i` on both halves
-//! (together well inside the `ACC_PLANNING_FACTOR` reserve):
+//! (together well inside the `ACC_PLANNING_FACTOR` (0.99) reserve):
 //!
 //! 1. the tangent's rotation: `u T_i` leaves the chord of its end values by up to
-//!    `|u| (1 - cos(turn / 2))`, kept within `TANGENT_SHARE`` A_i` (and the turn within
-//!    `MAX_TURN_DEG` for the velocity limits);
+//!    `|u| (1 - cos(turn / 2))`, kept within `TANGENT_SHARE` (0.001)` A_i` (and the turn within
+//!    `MAX_TURN_DEG` (4.0) for the velocity limits);
 //! 2. the product of two linear functions: `x K_i` bulges by `|dx dK_i| / 4` with
-//!    `dx = 2 u ds`, so `|u| ds |dK_i| / 2 <= ``PRODUCT_SHARE`` A_i`, with `|u|` bounded
+//!    `dx = 2 u ds`, so `|u| ds |dK_i| / 2 <= ` `PRODUCT_SHARE` (0.004)` A_i`, with `|u|` bounded
 //!    by the largest tangential acceleration the checked rows can allow ([`u_bound`]);
 //!    this term shrinks with the square of the half, so curvature that changes fast over
 //!    a short transition needs only a few intervals;
 //! 3. curvature that is not linear in `s` inside the half: checked at the half's own
 //!    midpoint (the interval's quarter points) against the chord of its end values,
-//!    within `MAX_CURVATURE_BEND` of the larger of the local curvature and the floor
+//!    within `MAX_CURVATURE_BEND` (0.004) of the larger of the local curvature and the floor
 //!    `min_i A_i / x_env` (the curvature at which a speed `x_env` uses the smallest axis
 //!    acceleration; below it `x_env`, not the curvature, limits `x`), so
 //!    `x |dK| <= ` that share of `A`. `x_env` bounds `x` on the whole move: the speed cap
@@ -42,7 +42,7 @@
 //! 4. in jerk mode, the curvature rate: the jerk caps take it as the finite difference of
 //!    the curvature over each interval ([`super::jerk`]), which is its mean there, while
 //!    the jerk the setpoints show is `v^3` times its peak. A half whose two halves' rates
-//!    differ by `d` is bisected while `x_env^1.5 d / 2 > ``RATE_BEND_SHARE`` J_i` and it
+//!    differ by `d` is bisected while `x_env^1.5 d / 2 > ` `RATE_BEND_SHARE` (0.01)` J_i` and it
 //!    is longer than a period's travel at `x_env` (shorter, the finite differences see one
 //!    step, and its mean rate times `v^3` exceeds that step's `v^2 dK / T`). Terms
 //!    1-3 scale with the acceleration, which is small at a low feed: camotics_tiger at 3.73

@@ -16,7 +16,7 @@ use crate::geom::Vec3;
 /// (`T . K = 0`, `|T| = 1`), so `u = T . a` and `|u| <= sum_j |T_j| A_j`, whatever the
 /// speed and the curvature: `A_j` on a path along axis `j`, and never more than
 /// `|A| = sqrt(sum_j A_j^2)` (`u_global`). The bound is taken for any tangent within
-/// `MAX_TURN_DEG` of `t` (a change `e` of the unit tangent adds at most
+/// `MAX_TURN_DEG` (4.0) of `t` (a change `e` of the unit tangent adds at most
 /// `|e| |A| <= turn |A|`).
 pub fn u_bound(t: Vec3, caps: &Caps) -> f64 {
     TurnBounds::new(caps).u_bound(t)
