@@ -1,8 +1,8 @@
 //! Data parallelism for independent per-item work, and the one setting of how many
 //! threads ncsmooth uses ([`set_threads`]).
 //!
-//! [`map`] cuts `n` items into one contiguous chunk per thread (std scoped threads), the
-//! results concatenated in order. Each item is computed alone, so the result never depends
+//! [`map`] cuts `n` items into contiguous chunks that the threads take in turn (std scoped
+//! threads), the results concatenated in order. Each item is computed alone, so the result never depends
 //! on the number of threads; below a caller's threshold, or with one thread, it is a plain
 //! loop. The planner computes its grid on a second thread when there are two
 //! (`feed::lookahead::plan_stream`), with the same result. The setpoint pipeline
@@ -36,6 +36,11 @@ pub fn threads() -> usize {
     }
 }
 
+/// Chunks per thread [`map`] cuts its items into: the threads take the next chunk as they
+/// finish one, so items of uneven cost (a run of thousands of points beside runs of ten)
+/// still keep every thread busy to the end.
+pub(crate) const CHUNKS_PER_THREAD: usize = 16;
+
 /// `(0..n).map(f).collect()`, on up to [`threads`] threads when `n >= min_items`.
 pub fn map<T, F>(n: usize, min_items: usize, f: F) -> Vec<T>
 where
@@ -46,19 +51,35 @@ where
     if threads < 2 || n < min_items.max(2) {
         return (0..n).map(f).collect();
     }
-    let chunk = n.div_ceil(threads);
-    let f = &f;
-    std::thread::scope(|scope| {
-        let parts: Vec<_> = (0..n)
-            .step_by(chunk)
-            .map(|lo| scope.spawn(move || (lo..(lo + chunk).min(n)).map(f).collect::<Vec<T>>()))
-            .collect();
-        let mut out = Vec::with_capacity(n);
-        for p in parts {
-            out.extend(p.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+    let chunk = n.div_ceil(threads * CHUNKS_PER_THREAD);
+    let chunks = n.div_ceil(chunk);
+    let next = AtomicUsize::new(0);
+    let (f, next) = (&f, &next);
+    let work = move || {
+        let mut done: Vec<(usize, Vec<T>)> = Vec::new();
+        loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            if k >= chunks {
+                return done;
+            }
+            let lo = k * chunk;
+            done.push((k, (lo..(lo + chunk).min(n)).map(f).collect()));
         }
-        out
-    })
+    };
+    let mut parts: Vec<(usize, Vec<T>)> = std::thread::scope(|scope| {
+        let spawned: Vec<_> = (1..threads).map(|_| scope.spawn(work)).collect();
+        let mut parts = work();
+        for h in spawned {
+            parts.extend(h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+        }
+        parts
+    });
+    parts.sort_unstable_by_key(|p| p.0);
+    let mut out = Vec::with_capacity(n);
+    for (_, p) in parts {
+        out.extend(p);
+    }
+    out
 }
 
 #[cfg(test)]
