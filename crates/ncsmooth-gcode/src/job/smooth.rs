@@ -17,6 +17,26 @@ use ncsmooth::verify::{continuity, Continuity, Deviation};
 use ncsmooth::Toolpath;
 use std::time::Instant;
 
+/// The curves of a build, for a later build with the same curve options.
+struct CachedCurves {
+    opts: SmoothOptions,
+    curves: Curves,
+    /// Time their smoothing took (s).
+    smooth_s: f64,
+}
+
+impl CachedCurves {
+    fn of(tp: &Toolpath, opts: SmoothOptions) -> Result<CachedCurves, JobError> {
+        let t0 = Instant::now();
+        let curves = smooth(tp, &opts).map_err(|e| JobError::BadInput(e.to_string()))?;
+        Ok(CachedCurves {
+            opts,
+            curves,
+            smooth_s: t0.elapsed().as_secs_f64(),
+        })
+    }
+}
+
 impl SmoothJob {
     /// Parses `src` (named `name` in errors and the header) with [`SmoothJob::read`] and
     /// runs the job on it ([`SmoothJob::run`]); the parse time is in the report.
@@ -41,6 +61,9 @@ impl SmoothJob {
         // what the model found over tol in a first build; where that is not confirmed either,
         // the program is built as it was before the model, each part paid in full.
         let compress = self.compresses();
+        // Builds whose curve options are the same (the first two differ in the writing
+        // only) share one smoothing.
+        let mut cache: Option<CachedCurves> = None;
         let modelled = self.dialect.blends()
             && matches!(self.emit, None | Some(EmitStyle::Lines))
             && !compress
@@ -53,7 +76,7 @@ impl SmoothJob {
             for (k, even_out) in evened.take(EXECUTED_BUILDS + 1).enumerate() {
                 let rule = BudgetRule::Executed { less_mm, even_out };
                 // A build the budget leaves no room for falls back to paying each part.
-                let Ok(out) = self.run_with(name, src, program, rule) else {
+                let Ok(out) = self.run_with(name, src, program, rule, &mut cache) else {
                     break;
                 };
                 if out.report.within_tol {
@@ -78,9 +101,9 @@ impl SmoothJob {
                 g64_p_mm: self.g64_p_mm.or(Some(tol * SUM_BLEND_SHARE)),
                 ..self.clone()
             };
-            return job.run_with(name, src, program, BudgetRule::Sum);
+            return job.run_with(name, src, program, BudgetRule::Sum, &mut cache);
         }
-        self.run_with(name, src, program, BudgetRule::Sum)
+        self.run_with(name, src, program, BudgetRule::Sum, &mut cache)
     }
 
     /// `Method::None` with an emitter re-writes the program's own lines within the chord:
@@ -95,14 +118,20 @@ impl SmoothJob {
         src: &[u8],
         program: &Program,
         rule: BudgetRule,
+        cache: &mut Option<CachedCurves>,
     ) -> Result<SmoothedGcode, JobError> {
         let shares = Shares::of(self, program, rule)?;
         let (opts, loop_size) = self.curve_options(&shares)?;
         let mut t = Timings::default();
-        let t0 = Instant::now();
-        let curves =
-            smooth(&program.toolpath, &opts).map_err(|e| JobError::BadInput(e.to_string()))?;
-        t.smooth_s = t0.elapsed().as_secs_f64();
+        if cache.as_ref().is_some_and(|c| c.opts != opts) {
+            *cache = None;
+        }
+        let cached = match cache {
+            Some(c) => &*c,
+            None => &*cache.insert(CachedCurves::of(&program.toolpath, opts)?),
+        };
+        let curves = &cached.curves;
+        t.smooth_s = cached.smooth_s;
         let t0 = Instant::now();
         let emit = match (loop_size.is_some(), self.emit, self.smooth.method) {
             (true, _, _) | (false, None, Method::None) => EmitStyle::Native,
@@ -121,10 +150,10 @@ impl SmoothJob {
             Some(size) => Some((size, write(&without_loops(&curves.toolpath))?)),
             None => None,
         };
-        let checked = self.check(name, program, &curves, &gcode, &shares, looped)?;
+        let checked = self.check(name, program, curves, &gcode, &shares, looped)?;
         t.verify_s = t0.elapsed().as_secs_f64();
         let report = self.report(
-            name, src, program, &curves, &gcode, &shares, emit, checked, t,
+            name, src, program, curves, &gcode, &shares, emit, checked, t,
         );
         let loop_size_mm = match self.smooth.trig.corner {
             CornerStyle::Loop { loop_size_mm } if self.smooth.method == Method::Trig => {
