@@ -113,6 +113,8 @@ pub mod flags {
     pub const EXPLICIT_MOTION: u8 = 8;
     /// It is an O-word statement.
     pub const OWORD: u8 = 16;
+    /// It sets the path mode (`G61`, `G61.1`, `G64`), on some execution.
+    pub const PATH_MODE: u8 = 32;
 }
 
 /// One physical line.

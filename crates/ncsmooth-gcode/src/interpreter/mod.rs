@@ -132,6 +132,8 @@ pub(crate) struct Interp<'a> {
     /// The current line ran motion in the motion mode in force (no group-1 code of its
     /// own): a writer resuming verbatim text before it must restore that mode.
     pub(crate) line_modal_motion: bool,
+    /// The line sets the path mode (`G61`, `G61.1`, `G64`).
+    pub(crate) line_path_mode: bool,
 }
 
 /// Room for blocks [`Interp::check_held`] keeps after each line: a line adds a few (a
@@ -189,6 +191,7 @@ impl<'a> Interp<'a> {
             line_events: false,
             line_pinned: false,
             line_modal_motion: false,
+            line_path_mode: false,
         }
     }
 
@@ -472,6 +475,7 @@ impl<'a> Interp<'a> {
         self.line_first_block = self.tp.blocks.len();
         self.line_events = false;
         self.line_modal_motion = false;
+        self.line_path_mode = false;
         self.line_pinned = self.nested() || self.lb.block_delete || self.pin_everything;
         self.words.clear();
         self.assigns.clear();
@@ -633,6 +637,9 @@ impl<'a> Interp<'a> {
         let info = &mut self.map.lines[self.pc];
         if self.line_modal_motion {
             info.flags |= flags::MODAL_MOTION;
+        }
+        if self.line_path_mode {
+            info.flags |= flags::PATH_MODE;
         }
         if explicit_motion.is_some() {
             info.flags |= flags::EXPLICIT_MOTION;

@@ -571,6 +571,7 @@ impl Interp<'_> {
             return;
         };
         let mut text = code_name('G', c.code10);
+        self.line_path_mode = true;
         self.m.path = match c.code10 {
             610 => crate::source::PathMode::ExactPath,
             611 => crate::source::PathMode::ExactStop,

@@ -20,7 +20,9 @@
 //!   motion code (axis words without G0-G3) gets that code put in front of its words.
 //!
 //! A line whose moves were not changed is copied verbatim even if it could have been
-//! replaced, so `--method none` writes the program unchanged (plus the header lines). A
+//! replaced, so `--method none` writes the program unchanged (plus the header lines and,
+//! when blending is bounded ([`RewriteOptions::blend`]), a `G64 P Q` before the first
+//! motion and after each line of the program's own that sets a looser mode). A
 //! pinned move ([`Move::pinned`]) that comes back changed is an error
 //! ([`RewriteError::PinnedChanged`]): the smoothing must never alter them.
 
@@ -440,7 +442,18 @@ pub fn rewrite(
             .filter(|_| rapids[i])
             .or(opts.blend)
     };
-    let first_motion = first_loose_motion(lines, &changed, verbatim_at);
+    // Bounds are written in the main program's text (a subprogram after its end is
+    // copied as it is; a call is bounded before it).
+    let main_end = program
+        .source
+        .end_line
+        .unwrap_or(lines.len())
+        .min(lines.len());
+    let first_motion = first_loose_motion(lines, main_end, verbatim_at);
+    // The program has set a path mode since the last motion line: LinuxCNC blends a
+    // junction within the smaller of its two moves' tolerances (`tcFindBlendTolerance`),
+    // so bounding every copied move after it leaves no junction unbounded.
+    let mut mode_set = false;
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
@@ -451,8 +464,16 @@ pub fn rewrite(
         {
             r.flush(&mut s, &orig, &untracked_before)?;
         }
-        if let (Some(b), Some(true)) = (verbatim_at(i), first_motion.map(|f| f == i)) {
-            push_blend_line(&mut s, b, info.before.units, opts.decimals, eol);
+        let control = info.has(flags::EXECUTED) && info.has(flags::OWORD);
+        if let (Some(b), true) = (verbatim_at(i), executed_motion(info) || control) {
+            // Before the first motion, and after the program set a mode of its own (a
+            // `G64` without `P`), copied motion in a looser mode than ours is bounded.
+            // (A replaced run writes its own `G64`.)
+            let loose = info.before.path.blend_bound_mm() > b.p_mm + b.q_mm;
+            if !changed[i] && i < main_end && (first_motion == Some(i) || (mode_set && loose)) {
+                push_blend_line(&mut s, b, info.before.units, opts.decimals, eol);
+            }
+            mode_set = false;
         }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
@@ -496,6 +517,7 @@ pub fn rewrite(
             let last_line = i + 1 == lines.len();
             let newline = !last_line || src.ends_with(b"\n");
             copy_line(&mut s, text, info, &mut pending_motion, newline);
+            mode_set |= info.has(flags::EXECUTED) && info.has(flags::PATH_MODE);
         }
     }
     if let Some(mut r) = region.take() {
@@ -688,25 +710,28 @@ fn rapids_ahead(
     out
 }
 
+/// Whether line `l` is executed and moves (or may: modal motion).
+fn executed_motion(l: &LineInfo) -> bool {
+    l.has(flags::EXECUTED) && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION))
+}
+
 /// The first executed motion line, when blending is bounded, the controller's mode there
 /// is looser than the bound `blend` gives that line (LinuxCNC's start-up `G64` without `P`
 /// blends without limit) and the line is not replaced (a replaced run writes its own
-/// `G64`): the verbatim motion before the first smoothed run is bounded too. `None` when
-/// nothing changed.
+/// `G64`, see the caller): the verbatim motion before the first smoothed run is bounded
+/// too, also in a program given back unchanged.
 fn first_loose_motion(
     lines: &[LineInfo],
-    changed: &[bool],
+    main_end: usize,
     blend: impl Fn(usize) -> Option<Blend>,
 ) -> Option<usize> {
-    // A program given back unchanged is copied as it is.
-    if !changed.contains(&true) {
-        return None;
-    }
-    let i = lines.iter().position(|l| {
-        l.has(flags::EXECUTED) && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION))
-    })?;
+    // Control flow (a call, a loop) may run motion written further on: the main program
+    // runs in order up to its first motion or O-word statement.
+    let i = lines[..main_end]
+        .iter()
+        .position(|l| executed_motion(l) || (l.has(flags::EXECUTED) && l.has(flags::OWORD)))?;
     let b = blend(i)?;
-    (!changed[i] && lines[i].before.path.blend_bound_mm() > b.p_mm + b.q_mm).then_some(i)
+    (lines[i].before.path.blend_bound_mm() > b.p_mm + b.q_mm).then_some(i)
 }
 
 /// A run of replaced lines being written.

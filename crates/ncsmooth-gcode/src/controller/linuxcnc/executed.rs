@@ -55,9 +55,11 @@
 //! `G64` without `P`, a move the program runs more than once) are not modelled: there the
 //! blend is counted as before, the written deviation plus the caller's `P + Q`. LinuxCNC's
 //! parabolic blend, its fallback where an arc blend cannot be made, is not modelled either;
-//! `linuxcnc_run.py --ref` measures the real planner. The programmed path's own looser
-//! `G64`, on its own lines, is the program's: the model caps every `P` at the largest one
-//! the writer gives (`cap_mm`).
+//! `linuxcnc_run.py --ref` measures the real planner. The writer bounds the main
+//! program's copied moves, after a looser `G64` of the program's own too
+//! ([`crate::rewrite`]), and the model caps every `P` at the largest one the writer gives
+//! (`cap_mm`); a looser `G64` inside a subprogram written after the program's end stays
+//! the program's and is not modelled.
 
 use crate::interpreter::program::Program;
 use crate::source::PathMode;
