@@ -403,6 +403,22 @@ fn blending_is_bounded_around_smoothed_runs() {
     let want = "G64 P0.001\nG0 X0 Y0 F100\nG1 X1\nG64\nG64 P0.002 Q0\nG1 X2\nG61\nG1 X3\n\
                 G64\nG64 P0.002 Q0\nG1 X4\nG64 G1 X5\nG64 P0.002 Q0\nG1 X6\nG64\nM2\n";
     assert_eq!(unchanged(src), want);
+    // A subprogram's own G64 stays in force after the call: bounded after the call.
+    let src = "G64 P0.0005\nG0 X0 Y0 F100\nM98 P100\nG1 X1\nG1 X2 Y1\nM30\n\
+               O100\nG64\nG1 X0\nM99\n";
+    let t = unchanged(src);
+    assert!(t.contains("M98 P100\nG64 P0.002 Q0\nG1 X1\n"), "{t}");
+    assert!(t.contains("M30\nO100\nG64\nG1 X0\nM99\n"), "{t}");
+    assert_eq!(t.matches("G64 P0.002").count(), 1, "{t}");
+    // A G64 on a later pass of a loop than the first: the lines after the loop are
+    // bounded although their first (only) state was recorded after it.
+    let src = "#1 = 0\nG64 P0.0005\nG0 X0 Y0 F100\no1 repeat [2]\no2 if [#1 EQ 1]\nG64\n\
+               o2 endif\n#1 = 1\no1 endrepeat\nG1 X5\nG1 X6 Y2\nM2\n";
+    let t = unchanged(src);
+    assert!(t.contains("o1 endrepeat\nG64 P0.002 Q0\nG1 X5\n"), "{t}");
+    // No looser mode anywhere: control flow adds nothing, an exact-path G61 is kept.
+    let src = "G61\nG0 X0 Y0 F100\no1 repeat [2]\nG1 X1\nG1 X0\no1 endrepeat\nM2\n";
+    assert_eq!(unchanged(src), src);
     // An exact-path program gets its G61 back after the run.
     let t = run("G61\nG0 X0 Y0 F100\nG1 X1\nG1 X2 Y1\nM0\nG1 X3\n", 0.002);
     let after = t.split("G64 P0.002 Q0").nth(1).unwrap();

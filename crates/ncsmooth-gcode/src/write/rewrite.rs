@@ -450,10 +450,14 @@ pub fn rewrite(
         .unwrap_or(lines.len())
         .min(lines.len());
     let first_motion = first_loose_motion(lines, main_end, verbatim_at);
-    // The program has set a path mode since the last motion line: LinuxCNC blends a
-    // junction within the smaller of its two moves' tolerances (`tcFindBlendTolerance`),
-    // so bounding every copied move after it leaves no junction unbounded.
-    let mut mode_set = false;
+    // The program has set a path mode since the last motion line, or run control flow
+    // (a call, a loop) that may have: LinuxCNC blends a junction within the smaller of its
+    // two moves' tolerances (`tcFindBlendTolerance`), so bounding every copied move after
+    // it leaves no junction unbounded. A line's recorded state is that of its first run:
+    // after control flow in a program that loosens the mode anywhere, the bound is
+    // written whatever that state says.
+    let (mut mode_set, mut control_run) = (false, false);
+    let loosens = loosening_modes(lines, opts.blend);
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
@@ -470,10 +474,13 @@ pub fn rewrite(
             // `G64` without `P`), copied motion in a looser mode than ours is bounded.
             // (A replaced run writes its own `G64`.)
             let loose = info.before.path.blend_bound_mm() > b.p_mm + b.q_mm;
-            if !changed[i] && i < main_end && (first_motion == Some(i) || (mode_set && loose)) {
+            let after = (mode_set && loose) || (control_run && loosens);
+            if !changed[i] && i < main_end && (first_motion == Some(i) || after) {
                 push_blend_line(&mut s, b, info.before.units, opts.decimals, eol);
+                // (The rapids' bound below is this one or looser.)
+                runs_bound_over = None;
             }
-            mode_set = false;
+            (mode_set, control_run) = (false, false);
         }
         if changed[i] {
             let r = region.get_or_insert_with(|| {
@@ -518,6 +525,7 @@ pub fn rewrite(
             let newline = !last_line || src.ends_with(b"\n");
             copy_line(&mut s, text, info, &mut pending_motion, newline);
             mode_set |= info.has(flags::EXECUTED) && info.has(flags::PATH_MODE);
+            control_run |= control;
         }
     }
     if let Some(mut r) = region.take() {
@@ -732,6 +740,19 @@ fn first_loose_motion(
         .position(|l| executed_motion(l) || (l.has(flags::EXECUTED) && l.has(flags::OWORD)))?;
     let b = blend(i)?;
     (lines[i].before.path.blend_bound_mm() > b.p_mm + b.q_mm).then_some(i)
+}
+
+/// Whether an executed line of the program sets a mode looser than `blend` (a `G64`
+/// without `P`, a larger `P`).
+fn loosening_modes(lines: &[LineInfo], blend: Option<Blend>) -> bool {
+    let Some(b) = blend else {
+        return false;
+    };
+    lines.iter().any(|l| {
+        l.has(flags::EXECUTED)
+            && l.has(flags::PATH_MODE)
+            && l.state.path.blend_bound_mm() > b.p_mm + b.q_mm
+    })
 }
 
 /// A run of replaced lines being written.
