@@ -416,6 +416,14 @@ fn blending_is_bounded_around_smoothed_runs() {
                o2 endif\n#1 = 1\no1 endrepeat\nG1 X5\nG1 X6 Y2\nM2\n";
     let t = unchanged(src);
     assert!(t.contains("o1 endrepeat\nG64 P0.002 Q0\nG1 X5\n"), "{t}");
+    // A subprogram defined above the main program: bounded after its G64 and after the
+    // call; the program's own tighter mode set after the definition is kept.
+    let src = "o100 sub\nG64\nG1 X10 Y0\no100 endsub\nG21 G90 G17\nG64 P0.001\n\
+               G0 X0 Y0 Z1\nG1 Z0 F600\no100 call\nG1 X10 Y10\nG1 X20 Y10\nM2\n";
+    let t = unchanged(src);
+    assert!(t.contains("G64\nG64 P0.002 Q0\nG1 X10 Y0\n"), "{t}");
+    assert!(t.contains("G64 P0.001\nG0 X0 Y0 Z1\n"), "{t}");
+    assert!(t.contains("o100 call\nG64 P0.002 Q0\nG1 X10 Y10\n"), "{t}");
     // No looser mode anywhere: control flow adds nothing, an exact-path G61 is kept.
     let src = "G61\nG0 X0 Y0 F100\no1 repeat [2]\nG1 X1\nG1 X0\no1 endrepeat\nM2\n";
     assert_eq!(unchanged(src), src);

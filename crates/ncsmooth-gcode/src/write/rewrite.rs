@@ -524,7 +524,10 @@ pub fn rewrite(
             let last_line = i + 1 == lines.len();
             let newline = !last_line || src.ends_with(b"\n");
             copy_line(&mut s, text, info, &mut pending_motion, newline);
-            mode_set |= info.has(flags::EXECUTED) && info.has(flags::PATH_MODE);
+            if info.has(flags::EXECUTED) && info.has(flags::PATH_MODE) {
+                // The program's own mode after control flow: its state is this line's.
+                (mode_set, control_run) = (true, false);
+            }
             control_run |= control;
         }
     }
