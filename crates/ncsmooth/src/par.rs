@@ -2,9 +2,9 @@
 //! threads ncsmooth uses ([`set_threads`]).
 //!
 //! [`map`] cuts `n` items into contiguous chunks that the threads take in turn (std scoped
-//! threads), the results concatenated in order. Each item is computed alone, so the result never depends
-//! on the number of threads; below a caller's threshold, or with one thread, it is a plain
-//! loop. The planner computes its grid on a second thread when there are two
+//! threads), the results concatenated in order. Each item is computed alone, so the result
+//! never depends on the number of threads; below a caller's threshold, or with one thread,
+//! it is a plain loop. The planner computes its grid on a second thread when there are two
 //! (`feed::lookahead::plan_stream`), with the same result. The setpoint pipeline
 //! (`interp::execute_streamed`: reading, planning, interpolating and writing as stages)
 //! runs its stages on threads of their own whatever the setting: they hand data along

@@ -468,7 +468,7 @@ pub fn rewrite(
         {
             r.flush(&mut s, &orig, &untracked_before)?;
         }
-        let control = info.has(flags::EXECUTED) && info.has(flags::OWORD);
+        let control = executed_control(info);
         if let (Some(b), true) = (verbatim_at(i), executed_motion(info) || control) {
             // Before the first motion, and after the program set a mode of its own (a
             // `G64` without `P`), copied motion in a looser mode than ours is bounded.
@@ -726,6 +726,11 @@ fn executed_motion(l: &LineInfo) -> bool {
     l.has(flags::EXECUTED) && (l.has(flags::MODAL_MOTION) || l.has(flags::EXPLICIT_MOTION))
 }
 
+/// Whether line `l` is an executed O-word or `M98` statement (control flow).
+fn executed_control(l: &LineInfo) -> bool {
+    l.has(flags::EXECUTED) && l.has(flags::OWORD)
+}
+
 /// The first executed motion line, when blending is bounded, the controller's mode there
 /// is looser than the bound `blend` gives that line (LinuxCNC's start-up `G64` without `P`
 /// blends without limit) and the line is not replaced (a replaced run writes its own
@@ -740,7 +745,7 @@ fn first_loose_motion(
     // runs in order up to its first motion or O-word statement.
     let i = lines[..main_end]
         .iter()
-        .position(|l| executed_motion(l) || (l.has(flags::EXECUTED) && l.has(flags::OWORD)))?;
+        .position(|l| executed_motion(l) || executed_control(l))?;
     let b = blend(i)?;
     (lines[i].before.path.blend_bound_mm() > b.p_mm + b.q_mm).then_some(i)
 }
