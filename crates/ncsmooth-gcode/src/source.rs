@@ -37,6 +37,9 @@ pub struct WriteState {
     pub feed_word: f64,
     /// Bit `i` set when axis `i` of X Y Z A B C U V W is known in the work frame.
     pub known: u16,
+    /// Bit `i` set when axis `i` is known only relative to a start the program never
+    /// placed (incremental moves from an unknown position): written only as increments.
+    pub relative: u16,
     /// Path control mode in force (G61, G61.1, G64 P Q).
     pub path: PathMode,
 }
@@ -93,6 +96,7 @@ impl Default for WriteState {
             motion10: 0,
             feed_word: f64::NAN,
             known: 0,
+            relative: 0,
             path: PathMode::Unset,
         }
     }

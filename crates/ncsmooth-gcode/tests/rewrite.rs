@@ -20,11 +20,13 @@ use proptest::prelude::*;
 
 #[derive(Clone, Debug)]
 enum Op {
-    /// G0/G1 to integer hundredths on a subset of X Y Z.
+    /// G0/G1 to integer hundredths on a subset of X Y Z, with `S<100 s>` when `s > 0` (a
+    /// laser's power on every block: a few values, so that most repeat).
     Line {
         rapid: bool,
         axes: u8,
         to: [i32; 3],
+        s: u8,
     },
     /// Axis words with no motion code: the motion mode in force (G0..G3) applies.
     Modal {
@@ -92,8 +94,8 @@ const FRAMES: &[&str] = &[
 fn op() -> impl Strategy<Value = Op> {
     let c = -5_000i32..5_000;
     prop_oneof![
-        6 => (any::<bool>(), 1u8..8, [c.clone(), c.clone(), c.clone()])
-            .prop_map(|(rapid, axes, to)| Op::Line { rapid, axes, to }),
+        6 => (any::<bool>(), 1u8..8, [c.clone(), c.clone(), c.clone()], 0u8..4)
+            .prop_map(|(rapid, axes, to, s)| Op::Line { rapid, axes, to, s }),
         2 => [c.clone(), c.clone()].prop_map(|to| Op::Modal { to }),
         3 => (any::<bool>(), [c.clone(), c], 10i32..300)
             .prop_map(|(ccw, off, angle)| Op::Arc { ccw, off, angle }),
@@ -113,7 +115,12 @@ fn program(ops: &[Op], no_z: bool) -> String {
     let mut last_motion_is_line = false;
     for op in ops {
         match op {
-            Op::Line { rapid, axes, to } => {
+            Op::Line {
+                rapid,
+                axes,
+                to,
+                s: power,
+            } => {
                 let mut l = String::from(if *rapid { "G0" } else { "G1" });
                 for (i, name) in ['X', 'Y', 'Z'].iter().enumerate() {
                     if axes & (1 << i) != 0 && !(no_z && i == 2) {
@@ -121,6 +128,9 @@ fn program(ops: &[Op], no_z: bool) -> String {
                     }
                 }
                 if l.len() > 2 {
+                    if *power > 0 {
+                        l += &format!(" S{}", 100 * u32::from(*power));
+                    }
                     s += &l;
                     s.push('\n');
                     last_motion_is_line = true;
@@ -292,6 +302,10 @@ proptest! {
         };
         prop_assert_eq!(ev(&p.toolpath), ev(&q.toolpath), "{}\n---\n{}", src, text);
         prop_assert_eq!(p.stats.untracked, q.stats.untracked);
+        // Every `S` on a motion block where the program sets it (the halves meet at the
+        // programmed vertices).
+        let kept = ncsmooth::verify::block_values_kept(&p.toolpath, &q.toolpath, 1e-5);
+        prop_assert!(kept.is_none(), "{:?}\n{}\n---\n{}", kept, src, text);
         let (subs, first_sub_line) = subprogram_lines(&src);
         prop_assert!(
             p.toolpath.moves().filter(|m| m.line >= first_sub_line).all(|m| m.pinned),
@@ -300,10 +314,12 @@ proptest! {
         prop_assert_eq!(subs, subprogram_lines(&text).0, "{}\n---\n{}", src, text);
         let dev = ncsmooth::verify::deviation(&q.toolpath, &p.toolpath, 1e-8);
         // Long lines and arcs may cut a vertex that turns by less than the break angle by
-        // up to the chord.
+        // up to the chord; the arcs `halves` gives as lines within the chord may be joined
+        // into longer lines within the chord again.
         let vertex_bound = if lines { 1e-4 + 1e-5 } else { 1e-5 };
+        let output_bound = if lines { 2e-4 + 1e-5 } else { 1e-4 + 1e-5 };
         prop_assert!(
-            dev.output_to_programmed_mm <= 1e-4 + 1e-5 && dev.vertex_to_output_mm <= vertex_bound,
+            dev.output_to_programmed_mm <= output_bound && dev.vertex_to_output_mm <= vertex_bound,
             "{:?}\n{}\n---\n{}", dev, src, text
         );
         if no_z {

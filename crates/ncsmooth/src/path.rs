@@ -156,6 +156,13 @@ pub enum EventKind {
     Dwell(f64),
     /// Spindle on/off/speed (M3 M4 M5 S).
     Spindle,
+    /// A new spindle speed or laser power `S` on a motion block (`G1 X10 S255`, nothing
+    /// else of the spindle on the line): the controller applies it from the start of that
+    /// block's motion without stopping (grbl's laser mode; a value per block, like `F`).
+    /// The path is not smoothed through it (it is a vertex of the program, written with
+    /// the value on the first block after it) and a planner does not stop there. The
+    /// value is in the program's own terms (rpm, or the laser's power scale).
+    SpindleSpeed(f64),
     /// Coolant (M7 M8 M9).
     Coolant,
     /// Tool change or tool select (T, M6).

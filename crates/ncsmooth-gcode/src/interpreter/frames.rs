@@ -97,6 +97,12 @@ pub(crate) struct Frames {
     pub pos: Axes,
     /// Bit `i` set when axis `i`'s work position is known.
     pub known: u16,
+    /// Bit `i` set when axis `i`'s position is known only relative to a point the program
+    /// never placed (never in `known`): incremental moves from an unknown position (a
+    /// laser program run from wherever the head is) keep `pos` as where they went from a
+    /// placeholder start. Such an axis is written only in increments, and becomes unknown
+    /// at any change of frame or an absolute word (see [`Frames::set`]).
+    pub relative: u16,
     g5x: [MaybeAxes; N_SYSTEMS],
     rot: [Option<f64>; N_SYSTEMS],
     /// Active coordinate system, if known.
@@ -128,6 +134,7 @@ impl Frames {
         Frames {
             pos: [0.0; N_AXES],
             known: 0,
+            relative: 0,
             g5x: [[None; N_AXES]; N_SYSTEMS],
             rot: [None; N_SYSTEMS],
             active: None,
@@ -146,6 +153,7 @@ impl Frames {
         let mut f = Frames {
             pos: [0.0; N_AXES],
             known: 0,
+            relative: 0,
             g5x: m.g5x.map(|o| some_all(&o)),
             rot: m.rotation.map(Some),
             active: Some(m.active.min(N_SYSTEMS - 1)),
@@ -176,9 +184,29 @@ impl Frames {
         (self.known & bit(i) != 0).then_some(self.pos[i])
     }
 
-    /// Sets axis `i` to `v` (unknown when `v` is `None`, keeping the placeholder).
+    /// The position of axis `i` relative to its placeholder start, if that is how it is
+    /// known ([`Frames::relative`]).
+    #[inline]
+    pub(crate) fn get_relative(&self, i: usize) -> Option<f64> {
+        (self.relative & bit(i) != 0).then_some(self.pos[i])
+    }
+
+    /// Axis `i` is at `v` relative to its placeholder start ([`Frames::relative`]).
+    pub(crate) fn set_relative(&mut self, i: usize, v: f64) {
+        if v.is_finite() {
+            self.pos[i] = v;
+            self.relative |= bit(i);
+            self.known &= !bit(i);
+        } else {
+            self.set(i, None);
+        }
+    }
+
+    /// Sets axis `i` to `v` (unknown when `v` is `None`, keeping the placeholder); either
+    /// way it is no longer known relatively.
     #[inline]
     pub(crate) fn set(&mut self, i: usize, v: Option<f64>) {
+        self.relative &= !bit(i);
         match v {
             Some(x) if x.is_finite() => {
                 self.pos[i] = x;
@@ -521,6 +549,7 @@ impl Frames {
     /// ncsmooth cannot follow: a tool change position, a probe).
     pub(crate) fn forget(&mut self, mask: u16) {
         self.known &= !mask;
+        self.relative &= !mask;
     }
 }
 

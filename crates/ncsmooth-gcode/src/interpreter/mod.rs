@@ -127,6 +127,9 @@ pub(crate) struct Interp<'a> {
     pub(crate) line_first_block: usize,
     /// The current line emitted an event.
     pub(crate) line_events: bool,
+    /// The current line's `S` is a value of its motion ([`EventKind::SpindleSpeed`]): a
+    /// rewrite writes it on the first block of the line's motion.
+    pub(crate) line_block_s: bool,
     /// The current line may not be replaced whatever its words (set by the handlers).
     pub(crate) line_pinned: bool,
     /// The current line ran motion in the motion mode in force (no group-1 code of its
@@ -189,6 +192,7 @@ impl<'a> Interp<'a> {
             drained: 0,
             line_first_block: 0,
             line_events: false,
+            line_block_s: false,
             line_pinned: false,
             line_modal_motion: false,
             line_path_mode: false,
@@ -474,6 +478,7 @@ impl<'a> Interp<'a> {
             .map_err(|e| self.lex_err(e))?;
         self.line_first_block = self.tp.blocks.len();
         self.line_events = false;
+        self.line_block_s = false;
         self.line_modal_motion = false;
         self.line_path_mode = false;
         self.line_pinned = self.nested() || self.lb.block_delete || self.pin_everything;
@@ -623,7 +628,7 @@ impl<'a> Interp<'a> {
             }
         }
         if first_time {
-            self.stats.axes_known |= self.f.known;
+            self.stats.axes_known |= self.f.known | self.f.relative;
         }
         if replaceable {
             self.stats.replaceable_lines += 1;
@@ -662,7 +667,11 @@ impl<'a> Interp<'a> {
                 0 | 10 | 20 | 30 | 50 | 51 | 170 | 180 | 190 | 900 | 910 | 901 | 911 | 940
             )
         });
-        let letters_ok = self.present & !block::MOTION_LETTER_SLOTS == 0;
+        let mut allowed = block::MOTION_LETTER_SLOTS;
+        if self.line_block_s {
+            allowed |= 1 << block::slot(b'S');
+        }
+        let letters_ok = self.present & !allowed == 0;
         g_ok && self.mcodes.is_empty() && letters_ok
     }
 
@@ -678,6 +687,7 @@ impl<'a> Interp<'a> {
             motion10: self.m.motion,
             feed_word: self.m.feed_word.unwrap_or(f64::NAN),
             known: self.f.known,
+            relative: self.f.relative,
             path: self.m.path,
         }
     }

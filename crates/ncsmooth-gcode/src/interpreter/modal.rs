@@ -20,7 +20,7 @@ use super::frames::{MaybeAxes, ALL_AXES, AXIS_LETTERS, N_AXES, N_SYSTEMS};
 use super::{Interp, MM_PER_INCH};
 use crate::error::{ParseError, ParseErrorKind};
 use crate::source::Plane;
-use ncsmooth::path::{EventKind, Units};
+use ncsmooth::path::{Event, EventKind, Units};
 
 /// Group-1 code meaning "no motion mode" (after G80), in tenths.
 pub(crate) const MOTION_NONE: u16 = 800;
@@ -49,6 +49,8 @@ pub(crate) struct Modal {
     pub spindle: i8,
     /// Last S word.
     pub rpm: f64,
+    /// An S word has been read (the speed the controller starts with is not known).
+    pub rpm_known: bool,
     pub mist: bool,
     pub flood: bool,
     /// Tool in the spindle and tool selected (T), -1 unknown.
@@ -88,6 +90,7 @@ impl Default for Modal {
             retract_r: true,
             spindle: 0,
             rpm: 0.0,
+            rpm_known: false,
             mist: false,
             flood: false,
             tool: -1.0,
@@ -283,10 +286,17 @@ impl Interp<'_> {
                 }
             }
         }
+        // S alone on a motion block is a value of that block's motion.
+        let block_s = spindle_m.is_empty() && spindle_g.is_none() && self.runs_motion();
         if takes_s {
             if let Some(s) = self.known_val(b'S')? {
-                push_word(&mut text, b'S', s);
+                if block_s {
+                    self.block_speed(s);
+                } else {
+                    push_word(&mut text, b'S', s);
+                }
                 self.m.rpm = s;
+                self.m.rpm_known = true;
             }
         }
         // S (and G96/G97) before the tool, M3/M4/M5 after M6, as LinuxCNC runs them.
@@ -351,6 +361,30 @@ impl Interp<'_> {
         }
         self.event(EventKind::Coolant, text);
         Ok(())
+    }
+
+    /// Whether the block runs a G0-G3 or G5/G5.1 motion (its own code or the modal one,
+    /// with words that move).
+    fn runs_motion(&self) -> bool {
+        matches!(self.block_motion(), 0 | 10 | 20 | 30 | 50 | 51)
+            && b"XYZABCUVWEIJKR@^".iter().any(|&l| self.has(l))
+    }
+
+    /// `S` on a motion block with nothing else of the spindle: a value of the block
+    /// ([`EventKind::SpindleSpeed`], only where it changes), which keeps the line
+    /// replaceable.
+    fn block_speed(&mut self, s: f64) {
+        self.line_block_s = true;
+        if self.m.rpm_known && s == self.m.rpm {
+            return;
+        }
+        let mut text = String::new();
+        push_word(&mut text, b'S', s);
+        self.tp.push_event(Event {
+            line: self.line_no,
+            kind: EventKind::SpindleSpeed(s),
+            text,
+        });
     }
 
     /// Other M codes with their words: overrides (M48-M53), I/O (M62-M68), M70-M73, user

@@ -69,6 +69,9 @@ pub(crate) struct Target {
     pub pos: Axes,
     /// Bit set when the target of the axis is known.
     pub known: u16,
+    /// Bit set when the target of the axis is known only relative to a placeholder start
+    /// (an increment from a position known that way, or from an unknown one).
+    pub relative: u16,
     /// Axes the block commands.
     pub commanded: u16,
 }
@@ -228,6 +231,7 @@ impl Interp<'_> {
         let mut t = Target {
             pos: self.f.pos,
             known: self.f.known,
+            relative: self.f.relative,
             commanded: 0,
         };
         if g53 {
@@ -238,16 +242,24 @@ impl Interp<'_> {
                     t.commanded |= bit(i);
                 }
             }
-            let saved = (self.f.pos, self.f.known);
+            let saved = (self.f.pos, self.f.known, self.f.relative);
             self.f.set_from_machine(&m, t.commanded);
             t.pos = self.f.pos;
             t.known = (self.f.known & t.commanded) | (saved.1 & !t.commanded);
-            (self.f.pos, self.f.known) = saved;
+            t.relative = saved.2 & !t.commanded;
+            (self.f.pos, self.f.known, self.f.relative) = saved;
             return self.in_range(t);
         }
         for i in 0..N_AXES {
             let Some(v) = words[i] else { continue };
             t.commanded |= bit(i);
+            if !self.m.absolute && self.f.get(i).is_none() {
+                // An increment from a position known relatively, or from an unknown one
+                // (which it starts knowing so: X Y Z only, see `Frames::relative`).
+                let from = self.f.get_relative(i).or((i < 3).then_some(self.f.pos[i]));
+                set_relative_target(&mut t, i, from.map(|p| p + v));
+                continue;
+            }
             let v = if self.m.absolute {
                 Some(v)
             } else {
@@ -267,7 +279,7 @@ impl Interp<'_> {
     /// the axis's word).
     fn in_range(&self, t: Target) -> Result<Target, ParseError> {
         for i in 0..N_AXES {
-            let known = t.known & bit(i) != 0;
+            let known = (t.known | t.relative) & bit(i) != 0;
             if t.commanded & bit(i) != 0 && known && t.pos[i].abs() > MAX_COORDINATE {
                 let letter = AXIS_LETTERS[i];
                 let w = if self.has(letter) {
@@ -323,15 +335,20 @@ impl Interp<'_> {
     /// start and at the end, plus `also` known at the start.
     fn trackable(&self, t: &Target, also: u16) -> bool {
         let need = t.commanded | also;
-        self.f.all_known(need) && t.known & need == need
+        // Known, or known relatively on both ends (an axis never changes between the two
+        // within a move: its offset is not known).
+        let before = self.f.known | self.f.relative;
+        let after = t.known | t.relative;
+        before & need == need && after & need == need && self.f.relative & need == t.relative & need
     }
 
     /// Moves the state to `t` (the commanded axes take their targets, known or not).
     fn go_to(&mut self, t: &Target) {
         for i in 0..N_AXES {
             if t.commanded & bit(i) != 0 {
-                let known = t.known & bit(i) != 0;
-                if known {
+                if t.relative & bit(i) != 0 {
+                    self.f.set_relative(i, t.pos[i]);
+                } else if t.known & bit(i) != 0 {
                     self.f.set(i, Some(t.pos[i]));
                 } else {
                     self.f.set(i, None);
@@ -516,7 +533,10 @@ impl Interp<'_> {
         } else {
             self.stats.g2 += 1;
         }
-        if !self.trackable(&t, plane_axes) {
+        // Absolute centres (G90.1) are not placed on axes known only relatively.
+        let centre_unplaced =
+            self.m.arc_absolute && (self.f.relative | t.relative) & plane_axes != 0;
+        if !self.trackable(&t, plane_axes) || centre_unplaced {
             // Consume the centre words so they are not reported unused.
             for l in [la, lb, b'R'] {
                 let _ = self.val(l);
@@ -751,12 +771,26 @@ impl Interp<'_> {
 }
 
 fn set_target(t: &mut Target, i: usize, v: Option<f64>) {
+    t.relative &= !bit(i);
     match v {
         Some(x) if x.is_finite() => {
             t.pos[i] = x;
             t.known |= bit(i);
         }
         _ => t.known &= !bit(i),
+    }
+}
+
+/// Sets the target of axis `i` to `v` relative to its placeholder start (unknown when
+/// `None`).
+fn set_relative_target(t: &mut Target, i: usize, v: Option<f64>) {
+    t.known &= !bit(i);
+    match v {
+        Some(x) if x.is_finite() => {
+            t.pos[i] = x;
+            t.relative |= bit(i);
+        }
+        _ => t.relative &= !bit(i),
     }
 }
 

@@ -71,6 +71,11 @@ pub struct SmoothRunReport {
     /// before an extra-axis event or at the end ([`ncsmooth::verify::extra_axes_kept`],
     /// within the rounding); `None` when they agree.
     pub extra_axes_mismatch: Option<ncsmooth::verify::ExtraAxesMismatch>,
+    /// Where the written program's per-block values (`S` on motion blocks) differ from the
+    /// program's: a value lost, changed or set off the programmed vertex
+    /// ([`ncsmooth::verify::block_values_kept`], within the rounding); `None` when they
+    /// agree.
+    pub block_values_mismatch: Option<ncsmooth::verify::BlockValueMismatch>,
     /// How far the written `E` strays along the path from the program's: the largest
     /// distance (mm of filament) of a written move end's `E` from the program's over its
     /// points within tol ([`ncsmooth::verify::extrusion_along_path`]); `None` without `E`.

@@ -490,6 +490,8 @@ impl SmoothJob {
         let blocks = BlockReport::of(src, &program.toolpath, gcode, &as_written, self.dialect);
         let extra_axes_mismatch =
             ncsmooth::verify::extra_axes_kept(&program.toolpath, &as_written, s.rounding);
+        let block_values_mismatch =
+            ncsmooth::verify::block_values_kept(&program.toolpath, &as_written, s.rounding);
         let extrusion_along_path =
             ncsmooth::verify::extrusion_along_path(&program.toolpath, &as_written, s.tol);
         let within_tol = loops_ok
@@ -516,6 +518,7 @@ impl SmoothJob {
             within_tol,
             deviation: dev,
             extra_axes_mismatch,
+            block_values_mismatch,
             extrusion_along_path,
             loops,
             continuity,
@@ -565,6 +568,12 @@ impl SmoothedGcode {
                 m.written,
                 m.program,
                 m.line
+            )));
+        }
+        if let Some(m) = r.block_values_mismatch {
+            return Err(JobError::Verification(format!(
+                "the written program sets S{} where the program sets S{} (line {}, 0: none there), {:e} mm from where the program sets it; nothing written",
+                m.written, m.program, m.line, m.offset_mm
             )));
         }
         if !r.within_tol {

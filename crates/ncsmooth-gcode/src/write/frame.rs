@@ -54,6 +54,10 @@ pub(crate) struct Frame {
     pub g5: bool,
     /// NURBS in the XY plane are written as `G5.2`/`G5.3`, one per Bézier span (exact).
     pub nurbs: bool,
+    /// X Y Z are written as increments (under `G91`): some of them are known only relative
+    /// to a start the program never placed. Each increment is the exact difference of the
+    /// absolute values the writer would print, so the reader is exactly where those put it.
+    pub incremental: bool,
 }
 
 impl Default for Frame {
@@ -73,6 +77,7 @@ impl Default for Frame {
             spiral_arcs: true,
             g5: false,
             nurbs: false,
+            incremental: false,
         }
     }
 }

@@ -114,7 +114,13 @@ pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) 
     w.end(out)?;
     for b in &tp.blocks {
         match b {
+            // Written on the next motion block (a line of its own would stop grbl).
+            Block::Event(e) if matches!(e.kind, EventKind::SpindleSpeed(_)) => {
+                lead_line(&mut w, out)?;
+                w.lead_words = Some(format!(" {}", e.text));
+            }
             Block::Event(e) => {
+                lead_line(&mut w, out)?;
                 w.begin();
                 match e.kind {
                     EventKind::Comment => push_comment(&mut w.line, "", &e.text),
@@ -137,6 +143,17 @@ pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) 
             }
             Block::Move(m) => w.write_move(m, out)?,
         }
+    }
+    lead_line(&mut w, out)
+}
+
+/// Writes the block value no motion block took (a zero-length move after it) as a line
+/// of its own.
+fn lead_line<W: fmt::Write>(w: &mut MotionWriter, out: &mut W) -> fmt::Result {
+    if let Some(words) = w.lead_words.take() {
+        w.begin();
+        w.line.push_str(words.trim_start());
+        w.end(out)?;
     }
     Ok(())
 }

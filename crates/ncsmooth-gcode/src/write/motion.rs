@@ -60,6 +60,9 @@ pub(crate) struct MotionWriter {
     /// chain's first block with a share of its own after the run's `P`), so no `G64` is
     /// written that no move runs under.
     pub blend_pending: Option<String>,
+    /// Words the next motion block carries after its own (` S255`: a value of the
+    /// program's block applied from there, [`ncsmooth::path::EventKind::SpindleSpeed`]).
+    pub lead_words: Option<String>,
     /// What moves next to the moves [`MotionWriter::write_moves`] is given.
     pub run_ends: RunEnds,
     /// What moves next to the chain being written.
@@ -80,6 +83,48 @@ pub(crate) struct MotionWriter {
 pub(crate) const EXACT_END_SNAP_MM: f64 = 1e-9;
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
+
+/// A decimal as printed ([`push_fixed`]) as an integer count of `10^-decimals`.
+fn scaled_decimal(s: &str, decimals: usize) -> Option<i128> {
+    let (neg, digits) = match s.strip_prefix('-') {
+        Some(d) => (true, d),
+        None => (false, s),
+    };
+    let (int, frac) = digits.split_once('.').unwrap_or((digits, ""));
+    if frac.len() > decimals {
+        return None;
+    }
+    let mut v: i128 = int.parse().ok()?;
+    for k in 0..decimals {
+        let d = frac.as_bytes().get(k).map_or(0, |b| i128::from(b - b'0'));
+        v = v * 10 + d;
+    }
+    Some(if neg { -v } else { v })
+}
+
+/// `a + sign * b` for two printed decimals, exactly (the digits of the longer fraction,
+/// trailing zeros dropped); `None` when one is not a printed decimal.
+fn decimal_sum(a: &str, b: &str, sign: i128) -> Option<String> {
+    let frac_len = |s: &str| s.split_once('.').map_or(0, |(_, f)| f.len());
+    let d = frac_len(a).max(frac_len(b));
+    let sum = scaled_decimal(a, d)? + sign * scaled_decimal(b, d)?;
+    let mut out = String::new();
+    if sum < 0 {
+        out.push('-');
+    }
+    let p = 10i128.pow(u32::try_from(d).ok()?);
+    let (int, mut frac) = (sum.abs() / p, sum.abs() % p);
+    let _ = write!(out, "{int}");
+    if frac != 0 {
+        let mut width = d;
+        while frac % 10 == 0 {
+            frac /= 10;
+            width -= 1;
+        }
+        let _ = write!(out, ".{frac:0width$}");
+    }
+    Some(out)
+}
 
 /// Under the long-lines emitter, an arc whose flattening within the chord takes at least
 /// this many lines is written as `G2`/`G3` (where its plane allows and the dialect keeps
@@ -156,6 +201,7 @@ impl MotionWriter {
             blend_schedule: None,
             blend_share: 1.0,
             blend_pending: None,
+            lead_words: None,
             run_ends: RunEnds::default(),
             chain_ends: RunEnds::default(),
             chain_extra: None,
@@ -186,6 +232,32 @@ impl MotionWriter {
         }
         out.write_str(&self.line)?;
         out.write_char('\n')
+    }
+
+    /// Ends a motion block: its [`MotionWriter::lead_words`], then [`MotionWriter::end`].
+    fn end_block<W: fmt::Write>(&mut self, out: &mut W) -> fmt::Result {
+        if let Some(words) = self.lead_words.take() {
+            self.line.push_str(&words);
+        }
+        self.end(out)
+    }
+
+    /// Writes a block value no block took (the motion it came with wrote nothing: a move
+    /// of no length) on a `G1` of no length where the writer is, as the program has it.
+    pub(crate) fn write_due_lead<W: fmt::Write>(&mut self, out: &mut W) -> fmt::Result {
+        if self.lead_words.is_none() {
+            return Ok(());
+        }
+        self.begin();
+        self.line.push_str("G1");
+        let p = self.written;
+        for i in 0..3 {
+            if self.allowed(i) {
+                self.axis(i, coord(p, i), true);
+            }
+        }
+        self.last_motion = Some(1);
+        self.end_block(out)
     }
 
     /// The next move writes every axis (the position was changed by something else).
@@ -226,8 +298,13 @@ impl MotionWriter {
     /// before, when no reset came between).
     pub(crate) fn assume_at(&mut self, p: Vec3, extra: Option<&[f64; 7]>, e_carry: f64) {
         for i in 0..3 {
-            let v = self.mm_to_units(i, coord(p, i));
-            self.fmt(v);
+            if self.frame.incremental {
+                // Increments are taken from exactly where the reader is.
+                self.fmt_exact(i, coord(p, i));
+            } else {
+                let v = self.mm_to_units(i, coord(p, i));
+                self.fmt(v);
+            }
             std::mem::swap(&mut self.last_axis[i], &mut self.scratch);
             self.axis_known[i] = true;
         }
@@ -332,6 +409,9 @@ impl MotionWriter {
     /// An axis that may not be written is never written: if its value would change, the
     /// violation is recorded.
     fn axis(&mut self, i: usize, v: f64, force: bool) -> bool {
+        if self.frame.incremental {
+            return self.axis_increment(i, v, force);
+        }
         let v = match self.exact_now.filter(|_| self.allowed(i)) {
             Some(e) => {
                 self.fmt_exact(i, coord(e, i));
@@ -360,6 +440,54 @@ impl MotionWriter {
         } else {
             false
         }
+    }
+
+    /// [`MotionWriter::axis`] under [`Frame::incremental`]: `last_axis[i]` is where the
+    /// reader is, exactly (the decimals it added up), and the increment is rounded from
+    /// there, so the reader is never more than half a digit from `v` whatever came before;
+    /// at the run's programmed end ([`MotionWriter::exact_end`]) it is the exact
+    /// difference to the program's own digits, so the copied lines after the run continue
+    /// from exactly where the program has them.
+    fn axis_increment(&mut self, i: usize, v: f64, force: bool) -> bool {
+        let at: f64 = self.last_axis[i].parse().unwrap_or(f64::NAN);
+        if !self.axis_known[i] || at.is_nan() {
+            // An increment needs where the reader is (set by `assume_at`).
+            self.violation.get_or_insert((AXIS_LETTERS[i], v));
+            return false;
+        }
+        let inc = match self.exact_now.filter(|_| self.allowed(i)) {
+            Some(e) => {
+                self.fmt_exact(i, coord(e, i));
+                decimal_sum(&self.scratch, &self.last_axis[i], -1)
+            }
+            None => {
+                self.fmt(self.mm_to_units(i, v) - at);
+                Some(self.scratch.clone())
+            }
+        };
+        let Some(inc) = inc else {
+            self.violation.get_or_insert((AXIS_LETTERS[i], v));
+            return false;
+        };
+        if !self.allowed(i) {
+            if inc != "0" {
+                self.violation.get_or_insert((AXIS_LETTERS[i], v));
+            }
+            return false;
+        }
+        if !force && inc == "0" {
+            return false;
+        }
+        let Some(next) = decimal_sum(&self.last_axis[i], &inc, 1) else {
+            self.violation.get_or_insert((AXIS_LETTERS[i], v));
+            return false;
+        };
+        self.line.push(' ');
+        self.line.push(AXIS_LETTERS[i]);
+        self.line.push_str(&inc);
+        self.last_axis[i] = next;
+        set_coord(&mut self.written, i, v);
+        true
     }
 
     /// The position the reader computes: the written (rounded) coordinates (mm).
@@ -461,7 +589,7 @@ impl MotionWriter {
         }
         self.feed(m);
         self.last_motion = Some(code);
-        self.end(out)
+        self.end_block(out)
     }
 
     /// Appends ` <letter><v>` for a length `v` (mm) in written units with
@@ -556,14 +684,19 @@ impl MotionWriter {
     /// gives the current point weight 1): the same curve, moved by the rounding of its
     /// control points at most (positive weights: a convex combination of them). Interior
     /// control points get [`CENTRE_EXTRA_DECIMALS`] more digits. False when it must be
-    /// flattened.
+    /// flattened (also when a block value is due: its first block carries it, and a
+    /// `G5.2` line does not take one).
     fn try_nurbs<W: fmt::Write>(
         &mut self,
         m: &Move,
         n: &Nurbs,
         out: &mut W,
     ) -> Result<bool, fmt::Error> {
-        if !self.nurbs_curve_able(n) || self.moves_extra(m) {
+        if !self.nurbs_curve_able(n)
+            || self.moves_extra(m)
+            || self.lead_words.is_some()
+            || self.frame.incremental
+        {
             return Ok(false);
         }
         let order = n.degree() + 1;
@@ -592,11 +725,11 @@ impl MotionWriter {
                     let _ = write!(self.line, " L{order}");
                     self.feed(m);
                 }
-                self.end(out)?;
+                self.end_block(out)?;
             }
             self.begin();
             self.line.push_str("G5.3");
-            self.end(out)?;
+            self.end_block(out)?;
         }
         self.last_motion = Some(G5_MOTION);
         Ok(true)
@@ -658,7 +791,7 @@ impl MotionWriter {
         self.feed(m);
         // G5 is a motion mode of its own: a following modal line must get its code back.
         self.last_motion = Some(G5_MOTION);
-        self.end(out)?;
+        self.end_block(out)?;
         Ok(true)
     }
 
@@ -1043,7 +1176,10 @@ impl MotionWriter {
         } else {
             return Ok(false);
         };
-        if self.frame.arc_planes & (1 << (plane - 17)) == 0 {
+        // Absolute centres (G90.1) have no place on axes known only relatively.
+        if self.frame.arc_planes & (1 << (plane - 17)) == 0
+            || (self.frame.incremental && self.frame.arc_absolute)
+        {
             return Ok(false);
         }
         // A controller that runs the start's circle would leave the spiral by up to its
@@ -1138,7 +1274,7 @@ impl MotionWriter {
         self.extras(extra);
         self.feed(m);
         self.last_motion = Some(if ccw { 3 } else { 2 });
-        self.end(out)?;
+        self.end_block(out)?;
         Ok(true)
     }
 

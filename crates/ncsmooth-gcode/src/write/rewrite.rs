@@ -458,13 +458,17 @@ pub fn rewrite(
     // written whatever that state says.
     let (mut mode_set, mut control_run) = (false, false);
     let loosens = loosening_modes(lines, opts.blend);
+    let block_values = block_values_of(&program.toolpath, lines.len());
     for (i, info) in lines.iter().enumerate() {
         let w = &out[out_by[i].0..out_by[i].1];
         let text = &src[info.start..info.end];
-        // Move by move, a run is written line by line, the last line when the run ends.
+        // A value of the line's motion (`S`) goes on its first block.
+        let lead = block_values[i].as_deref().filter(|_| changed[i]);
+        // Move by move, a run is written line by line, the last line when the run ends;
+        // a chain of lines ends where a block value comes.
         if let Some(r) = region
             .as_mut()
-            .filter(|r| changed[i] && r.w.frame.chain.is_none())
+            .filter(|r| changed[i] && (r.w.frame.chain.is_none() || lead.is_some()))
         {
             r.flush(&mut s, &orig, &untracked_before)?;
         }
@@ -492,6 +496,10 @@ pub fn rewrite(
                 let carry = if resets == e_carry.1 { e_carry.0 } else { 0.0 };
                 Region::open(&mut s, eol, info, first, (extra_mask, extra, carry), opts)
             });
+            if let Some(words) = lead {
+                r.due_lead(&mut s);
+                r.w.lead_words = Some(format!(" {words}"));
+            }
             r.pending.extend_from_slice(w);
             r.add_program(orig_by[i], &orig);
             r.end_state = info.state;
@@ -541,6 +549,20 @@ pub fn rewrite(
     }
     write_header(&mut s, opts, eol);
     Ok(s)
+}
+
+/// Per line (0-based), the text of the value its motion carries
+/// ([`EventKind::SpindleSpeed`]), if any.
+fn block_values_of(tp: &Toolpath, n_lines: usize) -> Vec<Option<String>> {
+    let mut out = vec![None; n_lines];
+    for e in tp.events() {
+        if let (EventKind::SpindleSpeed(_), Some(slot)) =
+            (&e.kind, out.get_mut((e.line as usize).wrapping_sub(1)))
+        {
+            *slot = Some(e.text.clone());
+        }
+    }
+    out
 }
 
 /// Per line, the events before it ([`extra_events_before_lines`]) that the runs depend on:
@@ -909,6 +931,14 @@ impl<'a> Region<'a> {
         Ok(())
     }
 
+    /// Writes a block value that no written block took (see
+    /// [`MotionWriter::write_due_lead`]).
+    fn due_lead(&mut self, s: &mut Vec<u8>) {
+        let _ = self.w.write_due_lead(&mut self.buf);
+        s.extend_from_slice(self.buf.replace('\n', self.eol).as_bytes());
+        self.buf.clear();
+    }
+
     fn open(
         s: &mut Vec<u8>,
         eol: &'static str,
@@ -923,7 +953,7 @@ impl<'a> Region<'a> {
             decimals: decimals_for(st.units, opts.decimals),
             chord_mm: opts.chord_mm,
             scale,
-            allowed_xyz: (st.known & 0b111) as u8,
+            allowed_xyz: ((st.known | st.relative) & 0b111) as u8,
             arc_absolute: st.arc_absolute,
             e_relative: st.e_relative,
             diameter: st.diameter,
@@ -959,6 +989,7 @@ impl<'a> Region<'a> {
             nurbs: matches!(opts.emit, Emit::Nurbs { .. }),
             arc_planes: opts.arc_planes,
             spiral_arcs: opts.spiral_arcs,
+            incremental: st.relative & 0b111 != 0,
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);
@@ -984,8 +1015,9 @@ impl<'a> Region<'a> {
             // first replaced move (a move's own values are those at its end).
             w.assume_at(start, extra_at_start.or(m.extra).as_ref(), e_carry);
         }
-        if !st.absolute {
-            s.extend_from_slice(b"G90");
+        // Absolute coordinates, or increments where an axis is known only relatively.
+        if st.absolute == w.frame.incremental {
+            s.extend_from_slice(if st.absolute { b"G91" } else { b"G90" });
             s.extend_from_slice(eol.as_bytes());
         }
         // The run's `G64` goes before its first line, unless the writer sets another
@@ -1018,10 +1050,11 @@ impl<'a> Region<'a> {
         verbatim: Option<Blend>,
     ) -> Option<u16> {
         debug_assert!(self.pending.is_empty());
+        self.due_lead(s);
         let st = self.end_state;
         let mut restore = String::new();
-        if !st.absolute {
-            restore.push_str("G91");
+        if st.absolute == self.w.frame.incremental {
+            restore.push_str(if st.absolute { "G90" } else { "G91" });
         }
         if self.w.frame.plane != plane_code(st.plane) {
             if !restore.is_empty() {

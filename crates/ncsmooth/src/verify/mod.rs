@@ -6,7 +6,10 @@
 //!   elsewhere.
 //! * [`continuity`]: position, tangent and curvature continuity at every joint.
 //! * [`extra_axes_kept`]: a written program's extra axes where the program has them.
+//! * [`block_values_kept`]: its per-block values (`S` on motion blocks) where the program
+//!   sets them.
 
+mod block_values;
 mod bvh;
 mod continuity;
 mod deviation;
@@ -14,6 +17,7 @@ mod extra_axes;
 mod nearest;
 mod prim;
 
+pub use block_values::{block_values_kept, BlockValueMismatch};
 pub use continuity::{
     continuity, continuity_joints, joint, Continuity, Joint, JointClass, CURVATURE_ABS_TOL,
     CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,

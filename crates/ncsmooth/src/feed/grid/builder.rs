@@ -130,6 +130,9 @@ impl<'o> IndexBuilder<'o> {
                 self.prog = Some(to);
                 self.extra_motion(from, self.machine(to), rate);
             }
+            // Applied from the next block on, without a stop (the corner there is the
+            // program's, and its joint is planned as any other).
+            EventKind::SpindleSpeed(_) => {}
             _ => self.add_stop(StopReason::Event, 0.0),
         }
     }
