@@ -14,6 +14,10 @@
 //! LinuxCNC therefore always carries its own `G64 P Q`, paid for from the tolerance. The
 //! other controllers run the written polyline exactly (their corner speed rules only slow
 //! the machine down). Comments and the program's own lines are copied for every dialect.
+//! The stepper firmwares run an arc as chords ([`Dialect::arc_chords`]), counted where one
+//! is written.
+
+use super::arcs::ArcChords;
 
 /// Smallest block (mm) the stepper dialects aim for: 4 steps at 200 steps/mm (0.02 mm),
 /// plus the controller's rounding of both ends to whole steps (up to half a step per axis
@@ -27,6 +31,17 @@ pub const LINUXCNC_MIN_SEGMENT_CYCLES: f64 = 1.02;
 
 /// LinuxCNC's default servo period (s).
 pub const LINUXCNC_SERVO_PERIOD_S: f64 = 0.001;
+
+/// grbl's and grblHAL's default arc tolerance `$12` (mm): the sagitta of their chords.
+pub(crate) const GRBL_ARC_TOLERANCE_MM: f64 = 0.002;
+/// Marlin's `MAX_ARC_SEGMENT_MM` (2.0.9.2 and later, default).
+pub(crate) const MARLIN_MAX_ARC_SEGMENT_MM: f64 = 1.0;
+/// Marlin's `MIN_ARC_SEGMENT_MM` (default).
+pub(crate) const MARLIN_MIN_ARC_SEGMENT_MM: f64 = 0.1;
+/// Marlin's `MIN_CIRCLE_SEGMENTS` (default).
+pub(crate) const MARLIN_MIN_CIRCLE_SEGMENTS: f64 = 72.0;
+/// Klipper's `[gcode_arcs] resolution` (mm, default).
+pub(crate) const KLIPPER_ARC_RESOLUTION_MM: f64 = 1.0;
 
 /// A controller family.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,6 +145,25 @@ impl Dialect {
         match self {
             Dialect::Marlin | Dialect::Klipper => 0b001,
             _ => 0b111,
+        }
+    }
+
+    /// How the controller runs a `G2`/`G3` (the firmware's chords and their defaults:
+    /// [`crate::controller::arcs`]).
+    pub fn arc_chords(self) -> ArcChords {
+        match self {
+            Dialect::Grbl | Dialect::GrblHal => ArcChords::Tolerance {
+                mm: GRBL_ARC_TOLERANCE_MM,
+            },
+            Dialect::Marlin => ArcChords::Segments {
+                max_mm: MARLIN_MAX_ARC_SEGMENT_MM,
+                min_mm: MARLIN_MIN_ARC_SEGMENT_MM,
+                per_turn: MARLIN_MIN_CIRCLE_SEGMENTS,
+            },
+            Dialect::Klipper => ArcChords::Floor {
+                resolution_mm: KLIPPER_ARC_RESOLUTION_MM,
+            },
+            Dialect::LinuxCnc | Dialect::Generic => ArcChords::Exact,
         }
     }
 

@@ -10,6 +10,9 @@ pub(crate) const STEPPER_CHORD_SHARE: f64 = 0.3;
 /// The chord when `Method::None` with an emitter compresses the program's own lines
 /// (nothing else is built: the chord takes what blending and rounding leave, with room).
 pub(crate) const COMPRESS_CHORD_SHARE: f64 = 0.8;
+/// The same for a controller that does not blend: the chord takes the whole tolerance but
+/// the rounding (twice over) and this share's remainder.
+pub(crate) const COMPRESS_EXACT_CHORD_SHARE: f64 = 0.97;
 /// Accuracy of the verification.
 pub(crate) const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
 /// Largest tolerance (mm): a deviation larger than a machine's travel bounds nothing, and

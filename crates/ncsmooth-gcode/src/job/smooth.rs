@@ -221,7 +221,11 @@ struct Shares {
 impl Shares {
     fn of(job: &SmoothJob, program: &Program, rule: BudgetRule) -> Result<Shares, JobError> {
         let (tol, dialect, compress) = (job.tol_mm, job.dialect, job.compresses());
-        let chord = job.chord_mm.unwrap_or(if compress {
+        // (Rounding depends on the program's units and the decimals only.)
+        let rounding = Budget::new(program, tol, tol * 0.5, job.decimals, 0.0).rounding_mm;
+        let chord = job.chord_mm.unwrap_or(if compress && !dialect.blends() {
+            (tol * COMPRESS_EXACT_CHORD_SHARE).min(tol - 2.0 * rounding)
+        } else if compress {
             tol * COMPRESS_CHORD_SHARE
         } else if dialect.block_floor_mm().is_some() {
             tol * STEPPER_CHORD_SHARE
@@ -243,7 +247,6 @@ impl Shares {
         // Inch programs are written in inches: their rounding applies where they are.
         // `none` builds no curves, but rounding still moves its points and off-plane arcs
         // are still flattened: the same budget applies.
-        let rounding = Budget::new(program, tol, chord, job.decimals, 0.0).rounding_mm;
         let blend = Self::blend(job, compress)?;
         let blend_mm = blend.map_or(0.0, |b| b.p_mm + b.q_mm);
         // The program's own rapids copied verbatim deviate by LinuxCNC's blending alone.

@@ -38,9 +38,10 @@
 //! segment lies between the projections of two consecutive dense points, whatever their
 //! order, so a point of their chord is within `t` of it).
 
+use crate::controller::arcs::ArcChords;
 #[cfg(doc)]
 use crate::controller::{floor::lift_short_blocks, linuxcnc::even_out::even_out};
-use crate::polyline::fits;
+use crate::polyline::{fits, seg_dist};
 use ncsmooth::geom::Vec3;
 
 /// Accuracy of the dense flattening, as a share of the chord tolerance; the rest of the
@@ -247,8 +248,78 @@ fn swept(c: Vec3, u0: f64, p: Vec3, ccw: bool) -> f64 {
     a.rem_euclid(std::f64::consts::TAU)
 }
 
-/// Whether the arc from `pa` to `pe` about `c` (XY, Z linear in angle) passes within `tol`
-/// of the dense points strictly between `from` and `to`, in order.
+/// An arc in the XY plane about `c` of radius `r` from angle `u0`, turning `ccw`, its Z
+/// linear in the swept angle from `z0` at `dz_per_rad`.
+#[derive(Clone, Copy)]
+struct ArcXy {
+    c: Vec3,
+    r: f64,
+    u0: f64,
+    ccw: bool,
+    z0: f64,
+    dz_per_rad: f64,
+}
+
+impl ArcXy {
+    /// The point swept `th` from the start.
+    fn at(&self, th: f64) -> Vec3 {
+        let u = if self.ccw { self.u0 + th } else { self.u0 - th };
+        Vec3::new(
+            self.c.x + self.r * u.cos(),
+            self.c.y + self.r * u.sin(),
+            self.z0 + self.dz_per_rad * th,
+        )
+    }
+
+    /// The distance of the point at `p` (swept `th`) from the arc: radial and in Z.
+    fn miss(&self, p: Vec3, th: f64) -> f64 {
+        let dr = (p.x - self.c.x).hypot(p.y - self.c.y) - self.r;
+        dr.hypot(p.z - (self.z0 + self.dz_per_rad * th))
+    }
+
+    /// Whether the arc piece swept from `t0` to `t1` and the segment `a`-`b` (whose ends
+    /// are swept `t0` and `t1`, at `miss_a` and `miss_b` from the arc) are within `tol`
+    /// of each other both ways.
+    ///
+    /// Segment to arc: the distance of a segment point from the circle is at most the
+    /// larger of its ends' (the distance to the centre is convex along the segment) and
+    /// of how far inside the circle its nearest point to the centre lies; Z is linear
+    /// along both, so its gap is at most its ends'. Arc to segment: the arc is sampled
+    /// so that it leaves the chords between samples by at most `tol / 64`; the distance
+    /// to the segment, convex along each such chord, is at most its samples' plus that.
+    fn piece_within(&self, t0: f64, t1: f64, a: Vec3, b: Vec3, miss: [f64; 2], tol: f64) -> bool {
+        let flat = |p: Vec3| Vec3::new(p.x, p.y, 0.0);
+        let (d_near, foot) = seg_dist(flat(self.c), flat(a), flat(b));
+        let inside = if (0.0..=1.0).contains(&foot) {
+            self.r - d_near
+        } else {
+            0.0
+        };
+        let dz = (miss[0].max(miss[1])).min(tol);
+        if miss[0].max(miss[1]) > tol || inside.hypot(dz) > tol {
+            return false;
+        }
+        let span = t1 - t0;
+        let slack = tol / 64.0;
+        // Sagitta of a sample chord: r (1 - cos(step / 2)) <= slack.
+        let step = if slack < self.r {
+            2.0 * (1.0 - slack / self.r).acos()
+        } else {
+            span
+        };
+        let n = ((span / step).ceil() as usize).clamp(1, 256);
+        (0..=n).all(|k| {
+            let q = self.at(t0 + span * k as f64 / n as f64);
+            seg_dist(q, a, b).0 + slack <= tol
+        })
+    }
+}
+
+/// Whether the arc from `pa` to `pe` about `c` (XY, Z linear in angle) and the dense
+/// polyline from `from` to `to` are within `tol` of each other both ways, their points in
+/// order along it: piece by piece between the dense points' angles
+/// ([`ArcXy::piece_within`]), the written ends standing for the dense ones; the
+/// controller's `chords` of the arc take their sagitta from `tol` first.
 #[allow(clippy::too_many_arguments)]
 fn arc_fits(
     dense: &[Vec3],
@@ -256,14 +327,12 @@ fn arc_fits(
     to: usize,
     pa: Vec3,
     pe: Vec3,
-    c: Vec3,
-    ccw: bool,
+    (c, ccw): (Vec3, bool),
     tol: f64,
+    chords: ArcChords,
 ) -> bool {
     let r = (pa.x - c.x).hypot(pa.y - c.y);
-    if (pe.x - c.x).hypot(pe.y - c.y) - r > tol * 0.25
-        || r - (pe.x - c.x).hypot(pe.y - c.y) > tol * 0.25
-    {
+    if ((pe.x - c.x).hypot(pe.y - c.y) - r).abs() > tol * 0.25 {
         return false;
     }
     let u0 = (pa.y - c.y).atan2(pa.x - c.x);
@@ -271,62 +340,185 @@ fn arc_fits(
     if total <= 0.0 {
         return false;
     }
-    // Between two dense points the arc bulges from their chord by at most its sagitta
-    // over the angle between them: the dense polyline is the path to stay near (with
-    // `--method none` it is the program itself).
-    let sagitta = |dth: f64| r * (1.0 - (0.5 * dth).cos());
-    let (mut last, mut last_err) = (0.0, pa.dist(dense[from]));
-    for &p in &dense[from + 1..to] {
-        let th = swept(c, u0, p, ccw);
-        if th < last || th > total {
-            return false;
-        }
-        let z = pa.z + (pe.z - pa.z) * th / total;
-        let dr = (p.x - c.x).hypot(p.y - c.y) - r;
-        let err = dr.hypot(p.z - z);
-        if err > tol || err.max(last_err) + sagitta(th - last) > tol {
-            return false;
-        }
-        (last, last_err) = (th, err);
+    // The controller's chords lie inside the arc by up to their sagitta.
+    let tol = tol - chords.sagitta_mm(r, total);
+    if tol <= 0.0 {
+        return false;
     }
-    last_err.max(pe.dist(dense[to])) + sagitta(total - last) <= tol
+    let arc = ArcXy {
+        c,
+        r,
+        u0,
+        ccw,
+        z0: pa.z,
+        dz_per_rad: (pe.z - pa.z) / total,
+    };
+    let (mut t0, mut a, mut miss_a) = (0.0, dense[from], pa.dist(dense[from]));
+    for k in from + 1..=to {
+        let p = dense[k];
+        let (t1, miss_b) = if k == to {
+            (total, pe.dist(p))
+        } else {
+            let th = swept(c, u0, p, ccw);
+            (th, arc.miss(p, th))
+        };
+        if t1 < t0 || t1 > total || !arc.piece_within(t0, t1, a, p, [miss_a, miss_b], tol) {
+            return false;
+        }
+        (t0, a, miss_a) = (t1, p, miss_b);
+    }
+    true
+}
+
+/// The centre (Z of `pa`) of the circle through `pa` and `pe` that bulges from their chord
+/// by `h` on the side of `towards` (a point off the chord).
+fn circle_with_bulge(pa: Vec3, pe: Vec3, towards: Vec3, h: f64) -> Option<Vec3> {
+    let (dx, dy) = (pe.x - pa.x, pe.y - pa.y);
+    let l = dx.hypot(dy);
+    if l <= 0.0 || h <= 0.0 {
+        return None;
+    }
+    let (mx, my) = (0.5 * (pa.x + pe.x), 0.5 * (pa.y + pe.y));
+    // Unit normal of the chord towards the bulge.
+    let (mut nx, mut ny) = (-dy / l, dx / l);
+    if (towards.x - mx) * nx + (towards.y - my) * ny < 0.0 {
+        (nx, ny) = (-nx, -ny);
+    }
+    let r = (0.25 * l * l + h * h) / (2.0 * h);
+    // The centre is r - h from the chord, on the bulge's side for a minor arc.
+    let off = h - r;
+    Some(Vec3::new(mx + nx * off, my + ny * off, pa.z))
+}
+
+/// Of the circles through `pa` and `pe` (dense indices `a` and `j`), the one that best
+/// balances the dense points outside it against the dense chords inside it, from the
+/// circle `c` through `mid` (a minor arc): flattening the arc by `d` at the middle of its
+/// chord moves it by about `4 u (1 - u) d` at chord parameter `u`, so the largest miss,
+/// the larger of the points' and the chord middles' offsets, is convex in `d` and its
+/// minimum is found by a ternary search; the circle found is then checked exactly.
+fn banded_circle(
+    dense: &[Vec3],
+    a: usize,
+    j: usize,
+    pa: Vec3,
+    pe: Vec3,
+    mid: Vec3,
+    c: Vec3,
+) -> Option<Vec3> {
+    let side = |p: Vec3| (pe.x - pa.x) * (p.y - pa.y) - (pe.y - pa.y) * (p.x - pa.x);
+    if side(mid) * side(c) >= 0.0 {
+        return None;
+    }
+    let r = (pa.x - c.x).hypot(pa.y - c.y);
+    let (dx, dy) = (pe.x - pa.x, pe.y - pa.y);
+    let l2 = dx * dx + dy * dy;
+    if l2 <= 0.0 {
+        return None;
+    }
+    let centre_to_chord = (0.5 * (pa.x + pe.x) - c.x).hypot(0.5 * (pa.y + pe.y) - c.y);
+    let bulge = r - centre_to_chord;
+    let weight = |p: Vec3| {
+        let u = (((p.x - pa.x) * dx + (p.y - pa.y) * dy) / l2).clamp(0.0, 1.0);
+        4.0 * u * (1.0 - u)
+    };
+    let off = |p: Vec3| (p.x - c.x).hypot(p.y - c.y) - r;
+    // (offset outside the circle, weight) of the points and of the chord middles.
+    let mut terms: Vec<(f64, f64)> = Vec::with_capacity(2 * (j - a));
+    for k in a..j {
+        let (p, q) = (dense[k], dense[k + 1]);
+        if k > a {
+            terms.push((off(p), weight(p)));
+        }
+        let m = (p + q) * 0.5;
+        terms.push((off(m), weight(m)));
+    }
+    let miss = |d: f64| {
+        terms
+            .iter()
+            .map(|&(o, w)| (o + w * d).abs())
+            .fold(0.0, f64::max)
+    };
+    let (mut lo, mut hi) = (0.0, bulge);
+    for _ in 0..40 {
+        let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+        if miss(m1) <= miss(m2) {
+            hi = m2;
+        } else {
+            lo = m1;
+        }
+    }
+    let d = 0.5 * (lo + hi);
+    (d > 0.0)
+        .then(|| circle_with_bulge(pa, pe, mid, bulge - d))
+        .flatten()
 }
 
 /// The longest arc from the written point `pa` (dense index `a`) within `tol_mm`: its end
-/// index, centre and sense, if one spans at least [`MIN_ARC_SPAN`] dense steps.
+/// index, centre and sense, if one spans at least [`MIN_ARC_SPAN`] dense steps. The end
+/// is searched by galloping then bisection (an arc that fits to `j` nearly always fits
+/// to every end before it), so a long arc costs a logarithmic number of checks.
 fn longest_arc(
     dense: &[Vec3],
     hard: &[bool],
     a: usize,
     pa: Vec3,
     tol_mm: f64,
+    chords: ArcChords,
     round: &impl Fn(Vec3) -> Vec3,
 ) -> Option<(usize, Vec3, bool)> {
-    let n = dense.len();
-    let mut best = None;
-    // The last index that fitted (the first candidate before any did).
-    let mut last_fit = a + MIN_ARC_SPAN;
-    let mut j = a + MIN_ARC_SPAN;
-    while j < n && j - a <= MAX_SPAN_POINTS && !hard[j - 1] && !hard[j - 2] {
+    // The farthest end: no hard point inside the arc, at most MAX_SPAN_POINTS steps.
+    let mut limit = a + MIN_ARC_SPAN;
+    if limit >= dense.len() || hard[limit - 1] || hard[limit - 2] {
+        return None;
+    }
+    while limit + 1 < dense.len() && limit + 1 - a <= MAX_SPAN_POINTS && !hard[limit] {
+        limit += 1;
+    }
+    let arc_to = |j: usize| {
         let pe = round(dense[j]);
         let mid = dense[(a + j) / 2];
-        let fit = circle_xy(pa, mid, pe).and_then(|c| {
-            let c = Vec3::new(c.x, c.y, pa.z);
+        let turn = (mid.x - pa.x) * (pe.y - mid.y) - (mid.y - pa.y) * (pe.x - mid.x);
+        let ccw = turn > 0.0;
+        let try_centre = |c: Vec3| {
             let r = (pa.x - c.x).hypot(pa.y - c.y);
-            let turn = (mid.x - pa.x) * (pe.y - mid.y) - (mid.y - pa.y) * (pe.x - mid.x);
-            let ccw = turn > 0.0;
-            (r <= MAX_ARC_RADIUS_MM && arc_fits(dense, a, j, pa, pe, c, ccw, tol_mm))
+            (r <= MAX_ARC_RADIUS_MM && arc_fits(dense, a, j, pa, pe, (c, ccw), tol_mm, chords))
                 .then_some((j, c, ccw))
-        });
-        if let Some(f) = fit {
-            best = Some(f);
-            last_fit = j;
-        } else if j - last_fit > SEARCH_PAST_FIT {
-            break;
+        };
+        circle_xy(pa, mid, pe).and_then(|c| {
+            let c = Vec3::new(c.x, c.y, pa.z);
+            // The circle through the middle of the band between the points and their
+            // chords (a flattened circle's lines lie inside it by their sagitta), else the
+            // circle through the points.
+            banded_circle(dense, a, j, pa, pe, mid, c)
+                .and_then(try_centre)
+                .or_else(|| try_centre(c))
+        })
+    };
+    let first = a + MIN_ARC_SPAN;
+    let (mut good, mut best) =
+        (first..=limit.min(first + SEARCH_PAST_FIT)).find_map(|j| arc_to(j).map(|f| (j, f)))?;
+    let mut step = 1;
+    let mut bad = None;
+    while good < limit {
+        let j = (good + step).min(limit);
+        match arc_to(j) {
+            Some(f) => (good, best, step) = (j, f, step * 2),
+            None => {
+                bad = Some(j);
+                break;
+            }
         }
-        j += 1;
     }
-    best
+    if let Some(mut hi) = bad {
+        while hi - good > 1 {
+            let j = (good + hi) / 2;
+            match arc_to(j) {
+                Some(f) => (good, best) = (j, f),
+                None => hi = j,
+            }
+        }
+    }
+    Some(best)
 }
 
 /// Like [`simplify`], with arcs: from each written point the piece that reaches farther,
@@ -337,6 +529,7 @@ pub fn fit_arcs(
     dense: &[Vec3],
     hard: &[bool],
     tol_mm: f64,
+    chords: ArcChords,
     round: impl Fn(Vec3) -> Vec3,
     out: &mut Vec<Piece>,
 ) {
@@ -345,7 +538,7 @@ pub fn fit_arcs(
     let mut pa = round(dense.first().copied().unwrap_or_default());
     while a + 1 < n {
         let jl = longest_line(dense, hard, a, pa, tol_mm, &round);
-        match longest_arc(dense, hard, a, pa, tol_mm, &round) {
+        match longest_arc(dense, hard, a, pa, tol_mm, chords, &round) {
             Some((ja, center, ccw)) if ja > jl => {
                 let end = round(dense[ja]);
                 out.push(Piece::Arc {
@@ -550,7 +743,7 @@ pub(crate) mod tests {
         let dense = arc_points(10.0, 6.0, 360);
         let hard = sharp_points(&dense, 1e-3);
         let mut out = Vec::new();
-        fit_arcs(&dense, &hard, 1e-3, |p| p, &mut out);
+        fit_arcs(&dense, &hard, 1e-3, ArcChords::Exact, |p| p, &mut out);
         let arcs = out
             .iter()
             .filter(|p| matches!(p, Piece::Arc { .. }))
@@ -570,7 +763,14 @@ pub(crate) mod tests {
             .map(|k| Vec3::new(k as f64 * 0.1, 0.0, 0.0))
             .collect();
         let mut out = Vec::new();
-        fit_arcs(&line, &sharp_points(&line, 1e-3), 1e-3, |p| p, &mut out);
+        fit_arcs(
+            &line,
+            &sharp_points(&line, 1e-3),
+            1e-3,
+            ArcChords::Exact,
+            |p| p,
+            &mut out,
+        );
         assert_eq!(
             out,
             vec![Piece::Line {
@@ -631,7 +831,7 @@ pub(crate) mod tests {
             use ncsmooth::geom::{Arc, Line, ParamCurve, ParamCurveNearest, Segment};
             let hard = sharp_points(&dense, tol);
             let mut out = Vec::new();
-            fit_arcs(&dense, &hard, tol, |p| p, &mut out);
+            fit_arcs(&dense, &hard, tol, ArcChords::Exact, |p| p, &mut out);
             let mut pieces: Vec<Segment> = Vec::new();
             let mut start = dense[0];
             for piece in &out {

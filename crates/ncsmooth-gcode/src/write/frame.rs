@@ -3,6 +3,7 @@
 
 #[cfg(doc)]
 use super::motion::{MotionWriter, NATIVE_ARC_MIN_BLOCKS};
+use crate::controller::arcs::ArcChords;
 #[cfg(doc)]
 use ncsmooth::path::EXTRA_AXIS_NAMES;
 
@@ -58,6 +59,8 @@ pub(crate) struct Frame {
     /// to a start the program never placed. Each increment is the exact difference of the
     /// absolute values the writer would print, so the reader is exactly where those put it.
     pub incremental: bool,
+    /// How the controller runs a `G2`/`G3` (its chords' sagitta is counted).
+    pub arc_chords: ArcChords,
 }
 
 impl Default for Frame {
@@ -78,6 +81,7 @@ impl Default for Frame {
             g5: false,
             nurbs: false,
             incremental: false,
+            arc_chords: ArcChords::Exact,
         }
     }
 }

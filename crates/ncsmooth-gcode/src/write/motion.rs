@@ -1084,7 +1084,8 @@ impl MotionWriter {
         out: &mut W,
     ) -> fmt::Result {
         let mut pieces = Vec::with_capacity(dense.len() / 8 + 2);
-        chain::fit_arcs(dense, hard, tol, |p| self.rounded(p), &mut pieces);
+        let chords = self.frame.arc_chords;
+        chain::fit_arcs(dense, hard, tol, chords, |p| self.rounded(p), &mut pieces);
         for piece in pieces {
             match piece {
                 chain::Piece::Line { end, to } => {
@@ -1190,6 +1191,10 @@ impl MotionWriter {
         let unit = self.unit_mm();
         let min_radius = (2.0 * unit).max(MIN_ARC_RADIUS_MM);
         if a.radius.is_nan() || a.radius < min_radius || !a.sweep.is_finite() || a.sweep <= 0.0 {
+            return Ok(false);
+        }
+        // The controller's chords of the arc must be within our own flattening's.
+        if self.frame.arc_chords.sagitta_mm(a.radius, a.sweep) > self.chord() {
             return Ok(false);
         }
         let normal_axis = 3 - i0 - i1;

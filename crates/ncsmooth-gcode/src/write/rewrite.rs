@@ -990,6 +990,7 @@ impl<'a> Region<'a> {
             arc_planes: opts.arc_planes,
             spiral_arcs: opts.spiral_arcs,
             incremental: st.relative & 0b111 != 0,
+            arc_chords: opts.arc_chords,
         };
         let start = first.map(|m| m.segment.start()).unwrap_or_default();
         let mut w = MotionWriter::new(frame, start);

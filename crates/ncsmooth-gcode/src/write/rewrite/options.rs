@@ -3,6 +3,7 @@
 
 #[cfg(doc)]
 use super::rewrite;
+use crate::controller::arcs::ArcChords;
 use crate::controller::dialect::Dialect;
 use crate::controller::linuxcnc::{Blend, CornerBlend};
 
@@ -44,6 +45,10 @@ pub struct RewriteOptions {
     /// When false, a spiral arc whose radii differ by more than half the chord tolerance
     /// is flattened. Default true.
     pub spiral_arcs: bool,
+    /// How the controller runs a `G2`/`G3` ([`crate::Dialect::arc_chords`]): an arc is
+    /// written only where its chords' sagitta fits the budget (within the chord, or what
+    /// an arc fit leaves). Default [`ArcChords::Exact`].
+    pub arc_chords: ArcChords,
     /// Write every replaceable line with feed motion through the emitter, changed or not
     /// (compressing a program's own G1 runs with [`Emit::Lines`] or [`Emit::Arcs`]); a
     /// line of rapids only is copied (a rapid is the program's). Default false: unchanged
@@ -103,6 +108,7 @@ impl Default for RewriteOptions {
             verbatim_blend: None,
             arc_planes: 0b111,
             spiral_arcs: true,
+            arc_chords: ArcChords::Exact,
             rewrite_unchanged: false,
             block_floor: None,
             long_arcs: true,
@@ -175,6 +181,7 @@ impl RewriteOptions {
         RewriteOptions {
             arc_planes: dialect.arc_planes(),
             spiral_arcs: dialect.runs_spirals(),
+            arc_chords: dialect.arc_chords(),
             long_arcs: dialect.keeps_long_arcs(),
             blend: if dialect.blends() { blend } else { None },
             ..self

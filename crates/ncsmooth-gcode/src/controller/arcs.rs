@@ -1,0 +1,102 @@
+//! How a controller runs a `G2`/`G3`: exactly (LinuxCNC's planner follows the circle), or
+//! as chords the firmware cuts it into, which lie inside the arc by up to their sagitta.
+//! A writer that writes an arc for such a controller counts that sagitta in its budget
+//! ([`ArcChords::sagitta_mm`]): the executed path, not the arc, must stay within the
+//! tolerance.
+//!
+//! The firmwares' own defaults, as they segment an arc of radius `r` sweeping `a`:
+//!
+//! * grbl 1.1 and grblHAL (`mc_arc`): chords whose sagitta is at most `$12`, the arc
+//!   tolerance (default 0.002 mm).
+//! * Marlin 2.0.9.2 and later (`plan_arc`): segments of at most `MAX_ARC_SEGMENT_MM`
+//!   (1 mm), at least `MIN_CIRCLE_SEGMENTS` (72) per turn, and no shorter than
+//!   `MIN_ARC_SEGMENT_MM` (0.1 mm) unless the arc is.
+//! * Klipper (`[gcode_arcs] resolution`, 1 mm): `floor(r a / resolution)` equal chords,
+//!   at least one, so a short arc may be one chord of up to twice the resolution.
+//!
+//! A firmware built or configured otherwise (older Marlin: `MM_PER_ARC_SEGMENT` and 24
+//! segments per turn; a coarser Klipper resolution) cuts longer chords than these; the
+//! dialect then under-counts them.
+
+use std::f64::consts::TAU;
+
+/// A controller's way of running an arc.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[non_exhaustive]
+pub enum ArcChords {
+    /// The controller runs the circle itself.
+    #[default]
+    Exact,
+    /// Chords within `mm` of the arc (grbl's `$12`).
+    Tolerance {
+        /// Largest sagitta (mm).
+        mm: f64,
+    },
+    /// Segments of at most `max_mm`, at least `per_turn` per turn, at least `min_mm` long
+    /// (Marlin).
+    Segments {
+        /// Longest segment (mm).
+        max_mm: f64,
+        /// Shortest segment (mm), unless the arc is shorter.
+        min_mm: f64,
+        /// Fewest segments per full turn.
+        per_turn: f64,
+    },
+    /// `floor(length / resolution_mm)` equal chords, at least one (Klipper).
+    Floor {
+        /// The resolution (mm).
+        resolution_mm: f64,
+    },
+}
+
+impl ArcChords {
+    /// The most the controller's chords lie inside an arc of radius `r_mm` sweeping
+    /// `sweep_rad` (0 for [`ArcChords::Exact`]).
+    pub fn sagitta_mm(self, r_mm: f64, sweep_rad: f64) -> f64 {
+        let angle = match self {
+            ArcChords::Exact => return 0.0,
+            ArcChords::Tolerance { mm } => return mm,
+            ArcChords::Segments {
+                max_mm,
+                min_mm,
+                per_turn,
+            } => {
+                let by_length = (max_mm / r_mm).min(TAU / per_turn);
+                by_length.max(min_mm / r_mm).min(sweep_rad)
+            }
+            ArcChords::Floor { resolution_mm } => {
+                let n = (r_mm * sweep_rad / resolution_mm).floor().max(1.0);
+                sweep_rad / n
+            }
+        };
+        r_mm * (1.0 - (0.5 * angle.min(TAU)).cos())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_firmwares_chords() {
+        let marlin = ArcChords::Segments {
+            max_mm: 1.0,
+            min_mm: 0.1,
+            per_turn: 72.0,
+        };
+        // A large arc: 1 mm chords, sagitta 1 / (8 r).
+        assert!((marlin.sagitta_mm(100.0, 1.0) - 1.0 / 800.0).abs() < 1e-6);
+        // A small one: 5 degree chords.
+        let s = marlin.sagitta_mm(5.0, 3.0);
+        assert!((s - 5.0 * (1.0 - (TAU / 144.0).cos())).abs() < 1e-12);
+        // Klipper: one chord for an arc shorter than twice the resolution.
+        let klipper = ArcChords::Floor { resolution_mm: 1.0 };
+        let s = klipper.sagitta_mm(1.0, 1.9);
+        assert!((s - (1.0 - (0.95f64).cos())).abs() < 1e-12);
+        assert_eq!(ArcChords::Exact.sagitta_mm(1.0, 1.0), 0.0);
+        assert_eq!(
+            ArcChords::Tolerance { mm: 0.002 }.sagitta_mm(1.0, 1.0),
+            0.002
+        );
+    }
+}

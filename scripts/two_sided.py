@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""Independent two-sided check of a written printer/laser program against its original.
+
+    scripts/two_sided.py ORIGINAL PRODUCED [--tol T] [--json]
+
+A dev tool, independent of ncsmooth's own verifier: its own small reader (G0-G3 with
+X Y Z E F, I J centres in G17, G90/G91, M82/M83, G92 E, G20/G21, `;` and `( )` comments),
+arcs sampled within 1e-5 mm. It reports upper bounds (exact point-to-segment distances to
+candidate segments found through a k-d tree), so "within tol" here is a proof up to the
+1e-5 mm of the arc sampling:
+
+  out_to_prog   largest distance of a point of the produced path (its segments sampled
+                0.002 mm apart: the true largest is at most 0.001 mm more) from the
+                original path;
+  vertex_to_out largest distance of an original vertex from the produced path;
+  e_along_path  largest |E| difference at the produced block ends against the original's
+                E at the same place (nearest point of the original path, E linear along
+                each original move); only where both extrude (absolute E, resets applied).
+
+Motion is compared per axis X Y Z; rapids and feeds alike. Needs numpy and scipy.
+"""
+import argparse
+import json
+import math
+import re
+import sys
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+ARC_SAG_MM = 1e-5
+PIECE_MM = 0.5
+SAMPLE_MM = 0.002
+
+
+def strip(line):
+    line = re.sub(r"\([^)]*\)", "", line)
+    return line.split(";", 1)[0]
+
+
+def densify(p, step):
+    """The polyline `p` with points at most `step` apart on every segment (vertex flags
+    kept on the original points)."""
+    a, b = p[:-1], p[1:]
+    length = np.linalg.norm(b[:, :3] - a[:, :3], axis=1)
+    n = np.maximum(1, np.ceil(length / step)).astype(int)
+    idx = np.repeat(np.arange(len(a)), n)
+    k = np.concatenate([np.arange(1, m + 1) for m in n]) if len(n) else np.array([], int)
+    t = (k / n[idx])[:, None]
+    pts = a[idx] + (b[idx] - a[idx]) * t
+    pts[:, 4] = np.where(k == n[idx], b[idx, 4], 0.0)
+    return np.vstack([p[:1], pts])
+
+
+def read(path):
+    """Polyline points (x, y, z, e, is_vertex) of the program, in mm."""
+    pos = [0.0, 0.0, 0.0]
+    e = 0.0
+    e_off = 0.0  # machine E = program E + e_off (G92 E resets)
+    absolute, e_abs, scale, motion = True, True, 1.0, None
+    pts = [(0.0, 0.0, 0.0, 0.0, False)]
+    started = False
+    for raw in open(path, errors="replace"):
+        words = WORD.findall(strip(raw))
+        if not words:
+            continue
+        w = {}
+        gs, ms = [], []
+        for l, v in words:
+            l = l.upper()
+            if l == "G":
+                gs.append(float(v))
+            elif l == "M":
+                ms.append(float(v))
+            else:
+                w[l] = float(v)
+        for g in gs:
+            if g in (0, 1, 2, 3):
+                motion = int(g)
+            elif g == 90:
+                absolute = True
+            elif g == 91:
+                absolute = False
+            elif g == 20:
+                scale = 25.4
+            elif g == 21:
+                scale = 1.0
+        for m in ms:
+            if m == 82:
+                e_abs = True
+            elif m == 83:
+                e_abs = False
+        if 92 in gs:
+            if "E" in w:
+                e_off = e - w["E"] * scale
+            continue
+        if motion is None or not any(k in w for k in "XYZE"):
+            continue
+        if any(g in (4, 28, 53) for g in gs):
+            continue
+        new = list(pos)
+        for i, l in enumerate("XYZ"):
+            if l in w:
+                v = w[l] * scale
+                new[i] = v if absolute else pos[i] + v
+        ne = e
+        if "E" in w:
+            v = w["E"] * scale
+            ne = (v + e_off) if (e_abs and absolute) else e + v
+        if not started:
+            pts = [(pos[0], pos[1], pos[2], e, False)]
+            started = True
+        if motion in (2, 3) and ("I" in w or "J" in w):
+            cx, cy = pos[0] + w.get("I", 0.0) * scale, pos[1] + w.get("J", 0.0) * scale
+            r = math.hypot(pos[0] - cx, pos[1] - cy)
+            a0 = math.atan2(pos[1] - cy, pos[0] - cx)
+            a1 = math.atan2(new[1] - cy, new[0] - cx)
+            ccw = motion == 3
+            sweep = (a1 - a0) if ccw else (a0 - a1)
+            sweep %= 2 * math.pi
+            if sweep <= 1e-12:
+                sweep = 2 * math.pi
+            step = 2 * math.acos(max(-1.0, 1 - ARC_SAG_MM / r)) if r > ARC_SAG_MM else sweep
+            n = max(1, int(math.ceil(sweep / step)))
+            for k in range(1, n + 1):
+                t = k / n
+                a = a0 + (sweep * t if ccw else -sweep * t)
+                pts.append((cx + r * math.cos(a), cy + r * math.sin(a),
+                            pos[2] + (new[2] - pos[2]) * t, e + (ne - e) * t, k == n))
+        else:
+            pts.append((new[0], new[1], new[2], ne, True))
+        pos, e = new, ne
+    return np.array(pts, dtype=float)
+
+
+def pieces(p):
+    """Segments of polyline `p` cut into pieces of at most PIECE_MM: (a, b, ea, eb)."""
+    a, b = p[:-1], p[1:]
+    length = np.linalg.norm(b[:, :3] - a[:, :3], axis=1)
+    n = np.maximum(1, np.ceil(length / PIECE_MM)).astype(int)
+    idx = np.repeat(np.arange(len(a)), n)
+    k = np.concatenate([np.arange(m) for m in n]) if len(n) else np.array([], int)
+    t0 = (k / n[idx])[:, None]
+    t1 = ((k + 1) / n[idx])[:, None]
+    pa = a[idx] + (b[idx] - a[idx]) * t0
+    pb = a[idx] + (b[idx] - a[idx]) * t1
+    return pa, pb
+
+
+def dist_to(points, pa, pb, k=16):
+    """Upper bounds of the distance from each point to the polyline of pieces, and the
+    E there (linear along the nearest piece found)."""
+    mid = 0.5 * (pa[:, :3] + pb[:, :3])
+    tree = cKDTree(mid)
+    kk = min(k, len(mid))
+    _, cand = tree.query(points[:, :3], k=kk)
+    if kk == 1:
+        cand = cand[:, None]
+    best = np.full(len(points), np.inf)
+    best_e = np.zeros(len(points))
+    for j in range(kk):
+        c = cand[:, j]
+        a, b = pa[c], pb[c]
+        d = b[:, :3] - a[:, :3]
+        l2 = np.einsum("ij,ij->i", d, d)
+        t = np.where(l2 > 0, np.einsum("ij,ij->i", points[:, :3] - a[:, :3], d) / np.where(l2 > 0, l2, 1), 0.0)
+        t = np.clip(t, 0.0, 1.0)
+        foot = a[:, :3] + d * t[:, None]
+        dist = np.linalg.norm(points[:, :3] - foot, axis=1)
+        better = dist < best
+        best = np.where(better, dist, best)
+        best_e = np.where(better, a[:, 3] + (b[:, 3] - a[:, 3]) * t, best_e)
+    return best, best_e
+
+
+def e_along(ends, pa, pb, window=400):
+    """|E| differences of the produced block ends from the original's E at the nearest
+    point of the original path near where the last end was matched (monotone along the
+    program: a travel crossing an extrusion is not matched to it)."""
+    out = np.zeros(len(ends))
+    ptr = 0
+    n = len(pa)
+    for i, pt in enumerate(ends):
+        lo, hi = max(0, ptr - 8), min(n, ptr + window)
+        a, b = pa[lo:hi], pb[lo:hi]
+        d = b[:, :3] - a[:, :3]
+        l2 = np.einsum("ij,ij->i", d, d)
+        t = np.where(l2 > 0, ((pt[:3] - a[:, :3]) * d).sum(1) / np.where(l2 > 0, l2, 1), 0.0)
+        t = np.clip(t, 0.0, 1.0)
+        dist = np.linalg.norm(pt[:3] - (a[:, :3] + d * t[:, None]), axis=1)
+        # Where the program is at one place with several E (a retract, a prime), the
+        # place has each of them.
+        near = dist <= dist.min() + 1e-6
+        e_there = a[:, 3] + (b[:, 3] - a[:, 3]) * t
+        diff = np.where(near, np.abs(pt[3] - e_there), np.inf)
+        j = int(np.argmin(diff))
+        ptr = lo + j
+        out[i] = diff[j]
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("original")
+    ap.add_argument("produced")
+    ap.add_argument("--tol", type=float, default=None)
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args()
+    p = read(a.original)
+    q = read(a.produced)
+    ppa, ppb = pieces(p)
+    qpa, qpb = pieces(q)
+    # Every point of the produced path: its segments sampled SAMPLE_MM apart (a point
+    # between two samples is within SAMPLE_MM / 2 of one).
+    out_d, _ = dist_to(densify(q, SAMPLE_MM), ppa, ppb)
+    vtx = p[p[:, 4] > 0]
+    vtx_d, _ = dist_to(vtx, qpa, qpb)
+    e_diff = e_along(q[q[:, 4] > 0], ppa, ppb)
+    res = {
+        "original_points": int(len(p)), "produced_points": int(len(q)),
+        "out_to_prog_mm": float(out_d.max()), "vertex_to_out_mm": float(vtx_d.max()),
+        "e_along_path_mm": float(e_diff.max()) if len(e_diff) else 0.0,
+        "points_over_tol": None,
+    }
+    if a.tol is not None:
+        res["points_over_tol"] = int((out_d > a.tol).sum() + (vtx_d > a.tol).sum())
+    print(json.dumps(res) if a.json else "\n".join(f"{k}: {v}" for k, v in res.items()))
+    sys.exit(0 if not res["points_over_tol"] else 1)
+
+
+if __name__ == "__main__":
+    main()
