@@ -17,7 +17,9 @@
 //! `(d0 + d1 + l) / 2`. Sharper bounds against the programmed primitives nearest to the
 //! piece's ends prune the common cases at once: along a straight piece the distance to
 //! one fixed programmed line is convex, so `f <= max` of the end distances to that line;
-//! and the distance from a straight or circular piece to a programmed planar arc, where
+//! along a circular piece it is at most that plus the piece's sagitta (the piece leaves
+//! its chord by no more); and the distance from a straight or circular piece to a
+//! programmed planar arc, where
 //! the piece's nearest points on its circle stay inside its sweep, has its exact maximum
 //! in closed form ([`PlanarArc::arc_piece_max`], [`PlanarArc::segment_max`]: an output
 //! arc that follows a programmed one, a few rounding units off its circle, is bounded in
@@ -345,7 +347,16 @@ fn upper_bound(prim: &Prim, pc: &Piece, len: f64, prog: &[Prim]) -> (f64, Option
             (PrimGeom::Arc(a), PrimGeom::Arc(q)) => {
                 q.arc_piece_max(a, pc.t0, pc.t1).map(|(b, t)| (b, Some(t)))
             }
-            (PrimGeom::Arc(_), PrimGeom::Line(_)) => None,
+            // Along the piece's chord the distance to a fixed line is convex (at most its
+            // ends'), and the piece leaves its chord by at most its sagitta.
+            (PrimGeom::Arc(a), PrimGeom::Line(l)) => {
+                let half = 0.5 * (pc.t1 - pc.t0) * a.arc.sweep;
+                let sagitta = a.arc.radius * (1.0 - half.min(std::f64::consts::PI).cos());
+                Some((
+                    l.dist_sq(pc.p0).max(l.dist_sq(pc.p1)).sqrt() + sagitta,
+                    None,
+                ))
+            }
         };
         if let Some((b, t)) = bound {
             if b < ub {
