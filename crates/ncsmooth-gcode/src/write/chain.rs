@@ -395,7 +395,8 @@ fn circle_with_bulge(pa: Vec3, pe: Vec3, towards: Vec3, h: f64) -> Option<Vec3> 
 /// circle `c` through `mid` (a minor arc): flattening the arc by `d` at the middle of its
 /// chord moves it by about `4 u (1 - u) d` at chord parameter `u`, so the largest miss,
 /// the larger of the points' and the chord middles' offsets, is convex in `d` and its
-/// minimum is found by a ternary search; the circle found is then checked exactly.
+/// minimum is found by a ternary search; the circles at and around it are then checked
+/// exactly by the caller, in [`BULGE_TRIES`] order.
 fn banded_circle(
     dense: &[Vec3],
     a: usize,
@@ -404,16 +405,16 @@ fn banded_circle(
     pe: Vec3,
     mid: Vec3,
     c: Vec3,
-) -> Option<Vec3> {
+) -> Vec<Vec3> {
     let side = |p: Vec3| (pe.x - pa.x) * (p.y - pa.y) - (pe.y - pa.y) * (p.x - pa.x);
     if side(mid) * side(c) >= 0.0 {
-        return None;
+        return Vec::new();
     }
     let r = (pa.x - c.x).hypot(pa.y - c.y);
     let (dx, dy) = (pe.x - pa.x, pe.y - pa.y);
     let l2 = dx * dx + dy * dy;
     if l2 <= 0.0 {
-        return None;
+        return Vec::new();
     }
     let centre_to_chord = (0.5 * (pa.x + pe.x) - c.x).hypot(0.5 * (pa.y + pe.y) - c.y);
     let bulge = r - centre_to_chord;
@@ -448,10 +449,18 @@ fn banded_circle(
         }
     }
     let d = 0.5 * (lo + hi);
-    (d > 0.0)
-        .then(|| circle_with_bulge(pa, pe, mid, bulge - d))
-        .flatten()
+    if d <= 0.0 {
+        return Vec::new();
+    }
+    // The model's optimum first, then around it (the parabola is only the model).
+    BULGE_TRIES
+        .iter()
+        .filter_map(|f| circle_with_bulge(pa, pe, mid, bulge - d * f))
+        .collect()
 }
+
+/// Shares of the model's flattening [`banded_circle`] tries, in order.
+const BULGE_TRIES: [f64; 5] = [1.0, 0.8, 1.2, 0.6, 1.4];
 
 /// The longest arc from the written point `pa` (dense index `a`) within `tol_mm`: its end
 /// index, centre and sense, if one spans at least [`MIN_ARC_SPAN`] dense steps. The end
@@ -490,7 +499,8 @@ fn longest_arc(
             // chords (a flattened circle's lines lie inside it by their sagitta), else the
             // circle through the points.
             banded_circle(dense, a, j, pa, pe, mid, c)
-                .and_then(try_centre)
+                .into_iter()
+                .find_map(try_centre)
                 .or_else(|| try_centre(c))
         })
     };
