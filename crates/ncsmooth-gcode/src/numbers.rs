@@ -32,6 +32,30 @@ pub fn rounding_mm(decimals: usize) -> f64 {
 /// of a 6-decimal round trip could move by up to 1.4e-6 mm).
 pub(crate) const CENTRE_EXTRA_DECIMALS: usize = 2;
 
+/// Appends `r * 10^-decimals`: its digits with the point inserted, trailing zeros of the
+/// fraction dropped (`0` for zero, never `-0`).
+pub(crate) fn push_scaled(s: &mut String, r: i128, decimals: usize) {
+    if r == 0 {
+        s.push('0');
+        return;
+    }
+    if r < 0 {
+        s.push('-');
+    }
+    let p = 10u128.pow(decimals as u32);
+    let u = r.unsigned_abs();
+    let (int, mut frac) = (u / p, u % p);
+    let _ = write!(s, "{int}");
+    if frac != 0 {
+        let mut width = decimals;
+        while frac % 10 == 0 {
+            frac /= 10;
+            width -= 1;
+        }
+        let _ = write!(s, ".{frac:0width$}");
+    }
+}
+
 /// Appends `v` with at most `decimals` digits after the point, without trailing zeros,
 /// never `-0` and never in exponent notation.
 ///
@@ -48,25 +72,7 @@ pub fn push_fixed(s: &mut String, v: f64, decimals: usize) {
         let p = POW10_U64[decimals];
         let x = (v * p as f64).round();
         if x.abs() < 9.0e15 {
-            let r = x as i64;
-            if r == 0 {
-                s.push('0');
-                return;
-            }
-            if r < 0 {
-                s.push('-');
-            }
-            let u = r.unsigned_abs();
-            let (int, mut frac) = (u / p, u % p);
-            let _ = write!(s, "{int}");
-            if frac != 0 {
-                let mut width = decimals;
-                while frac % 10 == 0 {
-                    frac /= 10;
-                    width -= 1;
-                }
-                let _ = write!(s, ".{frac:0width$}");
-            }
+            push_scaled(s, i128::from(x as i64), decimals);
             return;
         }
     }

@@ -11,7 +11,9 @@ use crate::controller::linuxcnc::blend::{
 };
 use crate::controller::linuxcnc::even_out::{even_out, EvenOut};
 use crate::controller::linuxcnc::g64::blend_words;
-use crate::numbers::{push_fixed, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS};
+use crate::numbers::{
+    push_fixed, push_scaled, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS,
+};
 use ncsmooth::geom::{Arc, CubicBez, Flatten, Nurbs, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Move, MoveKind, EXTRA_AXIS_NAMES};
 use std::f64::consts::TAU;
@@ -109,20 +111,7 @@ fn decimal_sum(a: &str, b: &str, sign: i128) -> Option<String> {
     let d = frac_len(a).max(frac_len(b));
     let sum = scaled_decimal(a, d)? + sign * scaled_decimal(b, d)?;
     let mut out = String::new();
-    if sum < 0 {
-        out.push('-');
-    }
-    let p = 10i128.pow(u32::try_from(d).ok()?);
-    let (int, mut frac) = (sum.abs() / p, sum.abs() % p);
-    let _ = write!(out, "{int}");
-    if frac != 0 {
-        let mut width = d;
-        while frac % 10 == 0 {
-            frac /= 10;
-            width -= 1;
-        }
-        let _ = write!(out, ".{frac:0width$}");
-    }
+    push_scaled(&mut out, sum, d);
     Some(out)
 }
 
