@@ -214,6 +214,10 @@ def e_along(ends, pa, pb, window=400):
         # place has each of them.
         near = dist <= dist.min() + 1e-6
         e_there = a[:, 3] + (b[:, 3] - a[:, 3]) * t
+        # A move of E alone (a retract, a prime) has every E between its ends there.
+        still = l2 <= 0
+        lo_e, hi_e = np.minimum(a[:, 3], b[:, 3]), np.maximum(a[:, 3], b[:, 3])
+        e_there = np.where(still, np.clip(pt[3], lo_e, hi_e), e_there)
         diff = np.where(near, np.abs(pt[3] - e_there), np.inf)
         j = int(np.argmin(diff))
         ptr = lo + j
