@@ -56,6 +56,35 @@ pub(crate) fn push_scaled(s: &mut String, r: i128, decimals: usize) {
     }
 }
 
+/// A decimal as printed ([`push_fixed`]) as an integer count of `10^-decimals`.
+fn scaled_decimal(s: &str, decimals: usize) -> Option<i128> {
+    let (neg, digits) = match s.strip_prefix('-') {
+        Some(d) => (true, d),
+        None => (false, s),
+    };
+    let (int, frac) = digits.split_once('.').unwrap_or((digits, ""));
+    if frac.len() > decimals {
+        return None;
+    }
+    let mut v: i128 = int.parse().ok()?;
+    for k in 0..decimals {
+        let d = frac.as_bytes().get(k).map_or(0, |b| i128::from(b - b'0'));
+        v = v * 10 + d;
+    }
+    Some(if neg { -v } else { v })
+}
+
+/// `a + sign * b` for two printed decimals, exactly (the digits of the longer fraction,
+/// trailing zeros dropped); `None` when one is not a printed decimal.
+pub(crate) fn decimal_sum(a: &str, b: &str, sign: i128) -> Option<String> {
+    let frac_len = |s: &str| s.split_once('.').map_or(0, |(_, f)| f.len());
+    let d = frac_len(a).max(frac_len(b));
+    let sum = scaled_decimal(a, d)? + sign * scaled_decimal(b, d)?;
+    let mut out = String::new();
+    push_scaled(&mut out, sum, d);
+    Some(out)
+}
+
 /// Appends `v` with at most `decimals` digits after the point, without trailing zeros,
 /// never `-0` and never in exponent notation.
 ///

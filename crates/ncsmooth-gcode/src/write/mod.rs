@@ -117,7 +117,7 @@ pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) 
             // Written on the next motion block (a line of its own would stop grbl).
             Block::Event(e) if matches!(e.kind, EventKind::SpindleSpeed(_)) => {
                 lead_line(&mut w, out)?;
-                w.lead_words = Some(format!(" {}", e.text));
+                w.lead_words = Some(e.text.clone());
             }
             Block::Event(e) => {
                 lead_line(&mut w, out)?;
@@ -152,7 +152,7 @@ pub fn write_to<W: fmt::Write>(tp: &Toolpath, opts: &WriteOptions, out: &mut W) 
 fn lead_line<W: fmt::Write>(w: &mut MotionWriter, out: &mut W) -> fmt::Result {
     if let Some(words) = w.lead_words.take() {
         w.begin();
-        w.line.push_str(words.trim_start());
+        w.line.push_str(&words);
         w.end(out)?;
     }
     Ok(())

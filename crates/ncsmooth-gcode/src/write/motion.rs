@@ -12,7 +12,7 @@ use crate::controller::linuxcnc::blend::{
 use crate::controller::linuxcnc::even_out::{even_out, EvenOut};
 use crate::controller::linuxcnc::g64::blend_words;
 use crate::numbers::{
-    push_fixed, push_scaled, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS,
+    decimal_sum, push_fixed, CENTRE_EXTRA_DECIMALS, E_EXTRA_DECIMALS, MAX_DECIMALS,
 };
 use ncsmooth::geom::{Arc, CubicBez, Flatten, Nurbs, ParamCurve, Segment, Vec3};
 use ncsmooth::path::{Move, MoveKind, EXTRA_AXIS_NAMES};
@@ -62,7 +62,7 @@ pub(crate) struct MotionWriter {
     /// chain's first block with a share of its own after the run's `P`), so no `G64` is
     /// written that no move runs under.
     pub blend_pending: Option<String>,
-    /// Words the next motion block carries after its own (` S255`: a value of the
+    /// Words the next motion block carries after its own (`S255`: a value of the
     /// program's block applied from there, [`ncsmooth::path::EventKind::SpindleSpeed`]).
     pub lead_words: Option<String>,
     /// What moves next to the moves [`MotionWriter::write_moves`] is given.
@@ -85,35 +85,6 @@ pub(crate) struct MotionWriter {
 pub(crate) const EXACT_END_SNAP_MM: f64 = 1e-9;
 
 const AXIS_LETTERS: [char; 3] = ['X', 'Y', 'Z'];
-
-/// A decimal as printed ([`push_fixed`]) as an integer count of `10^-decimals`.
-fn scaled_decimal(s: &str, decimals: usize) -> Option<i128> {
-    let (neg, digits) = match s.strip_prefix('-') {
-        Some(d) => (true, d),
-        None => (false, s),
-    };
-    let (int, frac) = digits.split_once('.').unwrap_or((digits, ""));
-    if frac.len() > decimals {
-        return None;
-    }
-    let mut v: i128 = int.parse().ok()?;
-    for k in 0..decimals {
-        let d = frac.as_bytes().get(k).map_or(0, |b| i128::from(b - b'0'));
-        v = v * 10 + d;
-    }
-    Some(if neg { -v } else { v })
-}
-
-/// `a + sign * b` for two printed decimals, exactly (the digits of the longer fraction,
-/// trailing zeros dropped); `None` when one is not a printed decimal.
-fn decimal_sum(a: &str, b: &str, sign: i128) -> Option<String> {
-    let frac_len = |s: &str| s.split_once('.').map_or(0, |(_, f)| f.len());
-    let d = frac_len(a).max(frac_len(b));
-    let sum = scaled_decimal(a, d)? + sign * scaled_decimal(b, d)?;
-    let mut out = String::new();
-    push_scaled(&mut out, sum, d);
-    Some(out)
-}
 
 /// Under the long-lines emitter, an arc whose flattening within the chord takes at least
 /// this many lines is written as `G2`/`G3` (where its plane allows and the dialect keeps
@@ -226,6 +197,7 @@ impl MotionWriter {
     /// Ends a motion block: its [`MotionWriter::lead_words`], then [`MotionWriter::end`].
     fn end_block<W: fmt::Write>(&mut self, out: &mut W) -> fmt::Result {
         if let Some(words) = self.lead_words.take() {
+            self.line.push(' ');
             self.line.push_str(&words);
         }
         self.end(out)

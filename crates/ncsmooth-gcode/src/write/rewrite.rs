@@ -498,7 +498,7 @@ pub fn rewrite(
             });
             if let Some(words) = lead {
                 r.due_lead(&mut s);
-                r.w.lead_words = Some(format!(" {words}"));
+                r.w.lead_words = Some(words.to_string());
             }
             r.pending.extend_from_slice(w);
             r.add_program(orig_by[i], &orig);
@@ -926,17 +926,21 @@ impl<'a> Region<'a> {
             return Err(RewriteError::UnknownAxis { line, axis });
         }
         self.pending.clear();
+        self.take_buf(s);
+        Ok(())
+    }
+
+    /// Moves what the writer wrote into `s`, with the program's line ends.
+    fn take_buf(&mut self, s: &mut Vec<u8>) {
         s.extend_from_slice(self.buf.replace('\n', self.eol).as_bytes());
         self.buf.clear();
-        Ok(())
     }
 
     /// Writes a block value that no written block took (see
     /// [`MotionWriter::write_due_lead`]).
     fn due_lead(&mut self, s: &mut Vec<u8>) {
         let _ = self.w.write_due_lead(&mut self.buf);
-        s.extend_from_slice(self.buf.replace('\n', self.eol).as_bytes());
-        self.buf.clear();
+        self.take_buf(s);
     }
 
     fn open(
