@@ -11,8 +11,41 @@
 //! query: a nearest hit pruned by distance, not a box).
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use super::Vec3;
+
+/// Hasher of the grid's cell keys: three integers, mixed by multiplication (the keys are
+/// the program's own coordinates, not an adversary's, and SipHash's resistance to chosen
+/// keys cost most of building the grid).
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        // (A key's three integers come as one slice of 24 bytes.)
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+
+    fn write_i64(&mut self, v: i64) {
+        self.write_u64(v as u64);
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        // FxHash's step: rotate, xor, multiply by an odd constant near 2^64 / phi.
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+type Cells = HashMap<[i64; 3], Vec<usize>, BuildHasherDefault<CellHasher>>;
 
 /// Largest number of cells a query looks at; [`SegmentGrid::candidates`] returns `false`
 /// for a larger box and the caller scans every segment.
@@ -30,7 +63,7 @@ const PIECE_PAD: f64 = 1e-9;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SegmentGrid {
     cell_mm: f64,
-    cells: HashMap<[i64; 3], Vec<usize>>,
+    cells: Cells,
     /// Segments too long (or not finite) to enter: candidates of every query.
     wide: Vec<usize>,
 }
@@ -55,7 +88,7 @@ impl SegmentGrid {
         };
         let mut grid = SegmentGrid {
             cell_mm,
-            cells: HashMap::new(),
+            cells: Cells::default(),
             wide: Vec::new(),
         };
         for (k, (a, b)) in segments.into_iter().enumerate() {
