@@ -195,7 +195,7 @@ def dist_to(points, pa, pb, k=8, tree=None):
     return best, best_e
 
 
-def e_along(ends, pa, pb, window=400):
+def e_along(ends, spans, pa, pb, window=400):
     """|E| differences of the produced block ends from the original's E at the nearest
     point of the original path near where the last end was matched (monotone along the
     program: a travel crossing an extrusion is not matched to it)."""
@@ -203,7 +203,9 @@ def e_along(ends, pa, pb, window=400):
     ptr = 0
     n = len(pa)
     for i, pt in enumerate(ends):
-        lo, hi = max(0, ptr - 8), min(n, ptr + window)
+        # The window reaches past the original's pieces a block `spans[i]` long can span.
+        reach = window + 2 * int(math.ceil(spans[i] / PIECE_MM))
+        lo, hi = max(0, ptr - 8), min(n, ptr + reach)
         a, b = pa[lo:hi], pb[lo:hi]
         d = b[:, :3] - a[:, :3]
         l2 = np.einsum("ij,ij->i", d, d)
@@ -241,7 +243,11 @@ def main():
     out_max = max_dist_to(q, SAMPLE_MM, ppa, ppb)
     vtx = p[p[:, 4] > 0]
     vtx_d, _ = dist_to(vtx, qpa, qpb)
-    e_diff = e_along(q[q[:, 4] > 0], ppa, ppb)
+    # Each produced block end with the length of the path from the end before it.
+    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q[:, :3], axis=0), axis=1))])
+    at_end = np.where(q[:, 4] > 0)[0]
+    spans = np.diff(np.concatenate([[0.0], along[at_end]]))
+    e_diff = e_along(q[at_end], spans, ppa, ppb)
     res = {
         "original_points": int(len(p)), "produced_points": int(len(q)),
         "out_to_prog_mm": out_max, "vertex_to_out_mm": float(vtx_d.max()),
