@@ -350,7 +350,11 @@ impl ArcXy {
             span
         };
         let n = ((span / step).ceil() as usize).clamp(1, 256);
-        let depths: &[f64] = if self.sag > 0.0 { &[0.0, self.sag] } else { &[0.0] };
+        let depths: &[f64] = if self.sag > 0.0 {
+            &[0.0, self.sag]
+        } else {
+            &[0.0]
+        };
         (0..=n).all(|k| {
             let th = t0 + span * k as f64 / n as f64;
             depths
@@ -388,7 +392,11 @@ fn arc_fits(
     // they lie for a planar arc, from the whole tolerance for a helix (whose chords'
     // heights are not the helix's at each angle).
     let sag = chords.sagitta_mm(r, total);
-    let (tol, sag) = if pe.z == pa.z { (tol, sag) } else { (tol - sag, 0.0) };
+    let (tol, sag) = if pe.z == pa.z {
+        (tol, sag)
+    } else {
+        (tol - sag, 0.0)
+    };
     if tol <= sag {
         return false;
     }
