@@ -30,7 +30,8 @@
 //!
 //! The returned values are therefore within `accuracy` of the true maxima (flattening of
 //! each side `accuracy / 4`, branch-and-bound slack `accuracy / 2`). Cost: O((n + m) log m)
-//! queries for paths that follow each other, each query O(log n) with the sequential hint.
+//! queries for paths that follow each other, each query O(log n) with the sequential hint;
+//! (a) runs in tasks of a fixed number of output primitives on [`crate::par`]'s threads.
 //! Memory: each side's primitives once (64 bytes a line), side (a) measured before the
 //! output's primitives become the index of side (b).
 
@@ -43,6 +44,11 @@ use serde::Serialize;
 /// A piece is split at the parameter of an exact maximum when it lies at least this share
 /// of the piece from both ends (else at the middle).
 const SPLIT_AT_MAX_MARGIN: f64 = 1e-3;
+
+/// Output primitives per task of (a), the tasks measured in parallel: a fixed count, so
+/// the result does not depend on the number of threads (each task's branch and bound
+/// prunes against its own best value).
+const OUTPUT_TASK_PRIMS: usize = 512;
 
 /// Fewest programmed vertices for which the vertex queries (b) use a tree over the
 /// output; below, each vertex scans the output's primitives (the smoothing methods measure
@@ -236,6 +242,31 @@ fn measure(
 /// primitives of the output to those indexed by `prog`, within `slack`, where it occurs
 /// (starting from `first`), the index of its output move, and the queries made.
 fn output_to_programmed(
+    out_prims: &[Prim],
+    prog: &Bvh,
+    slack: f64,
+    first: Vec3,
+) -> (f64, Vec3, u32, usize) {
+    let tasks = out_prims.len().div_ceil(OUTPUT_TASK_PRIMS);
+    let parts = crate::par::map(tasks, 2, |k| {
+        let lo = k * OUTPUT_TASK_PRIMS;
+        let hi = (lo + OUTPUT_TASK_PRIMS).min(out_prims.len());
+        output_part_to_programmed(&out_prims[lo..hi], prog, slack, first)
+    });
+    // The largest, the earliest of equals.
+    let mut best = (0.0, first, 0, 0);
+    for (d, at, src, queries) in parts {
+        if d > best.0 {
+            best = (d, at, src, best.3);
+        }
+        best.3 += queries;
+    }
+    best
+}
+
+/// (a) over a run of output primitives: the largest distance, where, its output source
+/// and the queries made.
+fn output_part_to_programmed(
     out_prims: &[Prim],
     prog: &Bvh,
     slack: f64,
