@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent two-sided check of a written printer/laser program against its original.
 
-    scripts/two_sided.py ORIGINAL PRODUCED [--tol T] [--json]
+    scripts/two_sided.py ORIGINAL PRODUCED [--tol T] [--firmware F] [--json]
 
 A dev tool, independent of ncsmooth's own verifier: its own small reader (G0-G3 with
 X Y Z E F, I J centres in G17, G90/G91, M82/M83, G92 E, G20/G21, `;` and `( )` comments),
@@ -18,6 +18,14 @@ candidate segments found through a k-d tree), so "within tol" here is a proof up
                 each original move); only where both extrude (absolute E, resets applied).
 
 Motion is compared per axis X Y Z; rapids and feeds alike. Needs numpy and scipy.
+
+`--firmware marlin|klipper` measures the produced program as that firmware runs its
+arcs: the chords it cuts them into (written from the firmwares' sources, not from
+ncsmooth): Marlin 2.0.9.2+ `plan_arc` with its defaults (segments of at most
+`MAX_ARC_SEGMENT_MM` 1 mm, at least 0.1 mm, at least 72 per full turn, a remainder
+segment to the end when the whole ones fall short), Klipper's `gcode_arcs.py`
+(`floor(length / resolution)` equal chords, resolution 1 mm). `exact` (the default) runs
+the circle.
 """
 import argparse
 import json
@@ -53,8 +61,32 @@ def densify(p, step):
     return np.vstack([p[:1], pts])
 
 
-def read(path):
-    """Polyline points (x, y, z, e, is_vertex) of the program, in mm."""
+def arc_steps(r, sweep, dz, firmware):
+    """Fractions of the sweep at which the firmware's chords of an arc end (the last 1)."""
+    if firmware == "marlin":
+        full = sweep >= 2 * math.pi - 1e-12
+        flat = r * sweep
+        min_segments = 72 if full else max(1, math.ceil(72 * sweep / (2 * math.pi)))
+        nominal = max(math.floor(flat / 1.0), min_segments)
+        seg = min(max(flat / nominal, 0.1), 1.0)
+        n = max(1, math.floor(flat / seg))
+        proportion = n * seg / flat if n * seg < flat - 1e-4 else 1.0
+        steps = [k * proportion / n for k in range(1, n + 1)]
+        if proportion < 1.0:
+            steps.append(1.0)
+        steps[-1] = 1.0
+        return steps
+    if firmware == "klipper":
+        n = max(1, math.floor(math.hypot(r * sweep, dz) / 1.0))
+        return [k / n for k in range(1, n + 1)]
+    step = 2 * math.acos(max(-1.0, 1 - ARC_SAG_MM / r)) if r > ARC_SAG_MM else sweep
+    n = max(1, int(math.ceil(sweep / step)))
+    return [k / n for k in range(1, n + 1)]
+
+
+def read(path, firmware="exact"):
+    """Polyline points (x, y, z, e, is_vertex) of the program, in mm; arcs as `firmware`
+    runs them (see the module doc)."""
     pos = [0.0, 0.0, 0.0]
     e = 0.0
     e_off = 0.0  # machine E = program E + e_off (G92 E resets)
@@ -121,13 +153,13 @@ def read(path):
             sweep %= 2 * math.pi
             if sweep <= 1e-12:
                 sweep = 2 * math.pi
-            step = 2 * math.acos(max(-1.0, 1 - ARC_SAG_MM / r)) if r > ARC_SAG_MM else sweep
-            n = max(1, int(math.ceil(sweep / step)))
-            for k in range(1, n + 1):
-                t = k / n
+            steps = arc_steps(r, sweep, new[2] - pos[2], firmware)
+            for k, t in enumerate(steps):
                 a = a0 + (sweep * t if ccw else -sweep * t)
-                pts.append((cx + r * math.cos(a), cy + r * math.sin(a),
-                            pos[2] + (new[2] - pos[2]) * t, e + (ne - e) * t, k == n))
+                last = k == len(steps) - 1
+                x, y = (new[0], new[1]) if last and firmware != "exact" else \
+                    (cx + r * math.cos(a), cy + r * math.sin(a))
+                pts.append((x, y, pos[2] + (new[2] - pos[2]) * t, e + (ne - e) * t, last))
         else:
             pts.append((new[0], new[1], new[2], ne, True))
         pos, e = new, ne
@@ -232,10 +264,11 @@ def main():
     ap.add_argument("original")
     ap.add_argument("produced")
     ap.add_argument("--tol", type=float, default=None)
+    ap.add_argument("--firmware", choices=["exact", "marlin", "klipper"], default="exact")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     p = read(a.original)
-    q = read(a.produced)
+    q = read(a.produced, a.firmware)
     ppa, ppb = pieces(p)
     qpa, qpb = pieces(q)
     # Every point of the produced path: its segments sampled SAMPLE_MM apart (a point
