@@ -24,14 +24,20 @@
 //! in closed form ([`PlanarArc::arc_piece_max`], [`PlanarArc::segment_max`]: an output
 //! arc that follows a programmed one, a few rounding units off its circle, is bounded in
 //! one step; the Lipschitz bound alone needs pieces of `accuracy` length there, 43 M
-//! queries on linuxcnc_arcspiral). A piece is split until its bound is within
+//! queries on linuxcnc_arcspiral); an arc piece against a programmed line in its plane
+//! has the same ([`PlanarArc::piece_max_to_line`]), and a piece whose ends are nearest
+//! to two lines meeting at a vertex is bounded by the first line up to the vertex's angle
+//! and the second after it. A piece is split until its bound is within
 //! `accuracy / 2` of the best value found so far, at the point where an exact maximum is
 //! attained when there is one inside it (that point is then measured), else at its middle.
 //!
 //! The returned values are therefore within `accuracy` of the true maxima (flattening of
 //! each side `accuracy / 4`, branch-and-bound slack `accuracy / 2`). Cost: O((n + m) log m)
 //! queries for paths that follow each other, each query O(log n) with the sequential hint;
-//! (a) runs in tasks of a fixed number of output primitives on [`crate::par`]'s threads.
+//! (a) runs in tasks of a fixed number of output primitives on [`crate::par`]'s threads,
+//! each pruning against a floor measured first (the distance at every primitive's
+//! middle); a point whose distance to the primitive nearest its neighbours' is within
+//! the best value so far needs no query (an upper bound serves the bounds as well).
 //! Memory: each side's primitives once (64 bytes a line), side (a) measured before the
 //! output's primitives become the index of side (b).
 
@@ -248,13 +254,25 @@ fn output_to_programmed(
     first: Vec3,
 ) -> (f64, Vec3, u32, usize) {
     let tasks = out_prims.len().div_ceil(OUTPUT_TASK_PRIMS);
-    let parts = crate::par::map(tasks, 2, |k| {
+    let part = |k: usize| {
         let lo = k * OUTPUT_TASK_PRIMS;
-        let hi = (lo + OUTPUT_TASK_PRIMS).min(out_prims.len());
-        output_part_to_programmed(&out_prims[lo..hi], prog, slack, first)
-    });
-    // The largest, the earliest of equals.
+        &out_prims[lo..(lo + OUTPUT_TASK_PRIMS).min(out_prims.len())]
+    };
+    // A floor for every task's pruning: the distance at each primitive's middle (a point
+    // of the output, so the floor is attained), the same whatever the thread count.
+    let floors = crate::par::map(tasks, 2, |k| middles_to_programmed(part(k), prog));
     let mut best = (0.0, first, 0, 0);
+    for (d, at, src, queries) in floors {
+        if d > best.0 {
+            best = (d, at, src, best.3);
+        }
+        best.3 += queries;
+    }
+    let floor = best.0;
+    let parts = crate::par::map(tasks, 2, |k| {
+        output_part_to_programmed(part(k), prog, slack, floor, first)
+    });
+    // The largest, the earliest of equals; a task reports only values above the floor.
     for (d, at, src, queries) in parts {
         if d > best.0 {
             best = (d, at, src, best.3);
@@ -264,25 +282,50 @@ fn output_to_programmed(
     best
 }
 
-/// (a) over a run of output primitives: the largest distance, where, its output source
+/// The largest distance from the middles of `out_prims` to the programmed path, where,
+/// its output source and the queries made.
+fn middles_to_programmed(out_prims: &[Prim], prog: &Bvh) -> (f64, Vec3, u32, usize) {
+    let mut q = Query::new(prog);
+    let mut best = (0.0, Vec3::default(), 0, 0);
+    for prim in out_prims {
+        let p = prim.eval(0.5);
+        let d = q.dist(p);
+        if d > best.0 {
+            best = (d, p, prim.source, 0);
+        }
+    }
+    best.3 = q.count;
+    best
+}
+
+/// (a) over a run of output primitives, pruning against `floor` (a distance attained
+/// elsewhere): the largest distance above the floor (0 if none), where, its output source
 /// and the queries made.
 fn output_part_to_programmed(
     out_prims: &[Prim],
     prog: &Bvh,
     slack: f64,
+    floor: f64,
     first: Vec3,
 ) -> (f64, Vec3, u32, usize) {
     let mut q = Query::new(prog);
-    let mut best = 0.0_f64;
+    let mut best = floor;
     let mut best_at = first;
     let mut best_src = 0u32;
     let mut stack: Vec<Piece> = Vec::with_capacity(64);
+    let mut last: Option<(Vec3, f64, usize)> = None;
     for prim in out_prims {
         let len = prim.length();
         let p0 = prim.eval(0.0);
         let p1 = prim.eval(1.0);
-        let (d0, h0) = q.dist_hit(p0);
-        let (d1, h1) = q.dist_hit(p1);
+        // A primitive starting where the last ended starts at its end's distance.
+        let (d0, h0) = match last {
+            Some((p, d, h)) if p == p0 => (d, h),
+            Some((_, _, h)) => q.dist_or_below(p0, h, h, best),
+            None => q.dist_or_below(p0, q.hint, q.hint, best),
+        };
+        let (d1, h1) = q.dist_or_below(p1, h0, h0, best);
+        last = Some((p1, d1, h1));
         for (d, p) in [(d0, p0), (d1, p1)] {
             if d > best {
                 best = d;
@@ -311,7 +354,7 @@ fn output_part_to_programmed(
                 _ => 0.5 * (pc.t0 + pc.t1),
             };
             let pm = prim.eval(tm);
-            let (dm, hm) = q.dist_hit(pm);
+            let (dm, hm) = q.dist_or_below(pm, pc.h0, pc.h1, best);
             if dm > best {
                 best = dm;
                 best_at = pm;
@@ -339,7 +382,8 @@ fn output_part_to_programmed(
             });
         }
     }
-    (best, best_at, best_src, q.count)
+    let found = if best > floor { best } else { 0.0 };
+    (found, best_at, best_src, q.count)
 }
 
 /// A parameter interval of an output primitive with its end distances and nearest
@@ -378,16 +422,20 @@ fn upper_bound(prim: &Prim, pc: &Piece, len: f64, prog: &[Prim]) -> (f64, Option
             (PrimGeom::Arc(a), PrimGeom::Arc(q)) => {
                 q.arc_piece_max(a, pc.t0, pc.t1).map(|(b, t)| (b, Some(t)))
             }
-            // Along the piece's chord the distance to a fixed line is convex (at most its
-            // ends'), and the piece leaves its chord by at most its sagitta.
-            (PrimGeom::Arc(a), PrimGeom::Line(l)) => {
-                let half = 0.5 * (pc.t1 - pc.t0) * a.arc.sweep;
-                let sagitta = a.arc.radius * (1.0 - half.min(std::f64::consts::PI).cos());
-                Some((
-                    l.dist_sq(pc.p0).max(l.dist_sq(pc.p1)).sqrt() + sagitta,
-                    None,
-                ))
-            }
+            // In the line's plane, the closed form; else: along the piece's chord the
+            // distance to a fixed line is convex (at most its ends'), and the piece
+            // leaves its chord by at most its sagitta.
+            (PrimGeom::Arc(a), PrimGeom::Line(l)) => a
+                .piece_max_to_line(l, pc.t0, pc.t1)
+                .map(|(b, t)| (b, Some(t)))
+                .or_else(|| {
+                    let half = 0.5 * (pc.t1 - pc.t0) * a.arc.sweep;
+                    let sagitta = a.arc.radius * (1.0 - half.min(std::f64::consts::PI).cos());
+                    Some((
+                        l.dist_sq(pc.p0).max(l.dist_sq(pc.p1)).sqrt() + sagitta,
+                        None,
+                    ))
+                }),
         };
         if let Some((b, t)) = bound {
             if b < ub {
@@ -396,7 +444,52 @@ fn upper_bound(prim: &Prim, pc: &Piece, len: f64, prog: &[Prim]) -> (f64, Option
             }
         }
     }
+    if let Some((b, t)) = corner_bound(prim, pc, prog) {
+        if b < ub {
+            ub = b;
+            at = Some(t);
+        }
+    }
     (ub, at)
+}
+
+/// A bound over an arc piece whose ends are nearest to two programmed lines meeting at
+/// a vertex: the distance to the path is at most the distance to the first line before
+/// the piece passes the vertex (its angle about the arc's centre) and to the second
+/// after it, each bounded in closed form (valid wherever the piece is cut; tight where
+/// the cut is where the nearest line changes).
+fn corner_bound(prim: &Prim, pc: &Piece, prog: &[Prim]) -> Option<(f64, f64)> {
+    if pc.h0 == pc.h1 {
+        return None;
+    }
+    let (PrimGeom::Arc(a), PrimGeom::Line(l0), PrimGeom::Line(l1)) =
+        (&prim.geom, &prog[pc.h0].geom, &prog[pc.h1].geom)
+    else {
+        return None;
+    };
+    let vertex = if l0.p1 == l1.p0 || l0.p1 == l1.p1 {
+        l0.p1
+    } else if l0.p0 == l1.p0 || l0.p0 == l1.p1 {
+        l0.p0
+    } else {
+        return None;
+    };
+    let arc = &a.arc;
+    let q = vertex - arc.center;
+    let theta = q
+        .dot(arc.v)
+        .atan2(q.dot(arc.u))
+        .rem_euclid(std::f64::consts::TAU);
+    // Past the end, the nearer end of the sweep.
+    let t = if theta <= arc.sweep || theta - arc.sweep < std::f64::consts::TAU - theta {
+        (theta / arc.sweep).min(1.0)
+    } else {
+        0.0
+    };
+    let tv = t.clamp(pc.t0, pc.t1);
+    let (b0, s0) = a.piece_max_to_line(l0, pc.t0, tv)?;
+    let (b1, s1) = a.piece_max_to_line(l1, tv, pc.t1)?;
+    Some(if b0 >= b1 { (b0, s0) } else { (b1, s1) })
 }
 
 /// Sequential nearest-distance queries with a hint (the previous nearest primitive).
@@ -425,6 +518,26 @@ impl<'a> Query<'a> {
         } else {
             (h.sqrt(), self.hint)
         }
+    }
+    /// The distance from `p` to the programmed path where it may exceed `floor`, else an
+    /// upper bound of it not above `floor`; with the primitive it is measured to. The
+    /// nearer of `a`, `b` and the hint is tried first: when it is within `floor` the
+    /// point cannot raise a maximum that is at least `floor`, and no query is made (an
+    /// upper bound serves the branch and bound as well as the distance).
+    fn dist_or_below(&mut self, p: Vec3, a: usize, b: usize, floor: f64) -> (f64, usize) {
+        let prims = &self.bvh.prims;
+        let (mut best, mut at) = (prims[self.hint].dist_sq(p), self.hint);
+        for h in [a, b] {
+            let d = prims[h].dist_sq(p);
+            if d < best {
+                (best, at) = (d, h);
+            }
+        }
+        if best <= floor * floor {
+            return (best.sqrt(), at);
+        }
+        self.hint = at;
+        self.dist_hit(p)
     }
     fn dist(&mut self, p: Vec3) -> f64 {
         self.dist_hit(p).0

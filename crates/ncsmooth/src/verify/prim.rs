@@ -233,6 +233,72 @@ impl PlanarArc {
     }
 }
 
+impl PlanarArc {
+    /// Largest distance from the piece `[t0, t1]` of this arc to the segment `l`, bounded
+    /// from above, and the parameter of the arc where the bound's in-plane part is
+    /// attained, when `l` is parallel to the arc's plane (else `None`).
+    ///
+    /// With `h` the height of `l` over the plane, `m` the in-plane unit normal of `l`
+    /// and `s` the position along it, a point of the arc at angle `theta` is
+    /// `g + r cos(theta - phi_m)` from `l`'s line in the plane and at
+    /// `s_c + r cos(theta - phi_d)` along it: the distance to the segment is
+    /// `sqrt(h^2 + (g + r cos(theta - phi_m))^2 + e^2)`, `e` how far the point's foot is
+    /// past an end. Each term is bounded by the range of its cosine over the piece; the
+    /// bound is the exact maximum where the piece's feet stay on the segment (`e = 0`).
+    pub fn piece_max_to_line(&self, l: &Line, t0: f64, t1: f64) -> Option<(f64, f64)> {
+        let a = &self.arc;
+        let len = l.p0.dist(l.p1);
+        if len <= 0.0 {
+            return None;
+        }
+        let d = (l.p1 - l.p0) * (1.0 / len);
+        let tilt = d.dot(self.normal);
+        if tilt.abs() > PARALLEL_TOL {
+            return None;
+        }
+        let w = a.center - l.p0;
+        let h = w.dot(self.normal);
+        let m = self.normal.cross(d);
+        let (th0, th1) = (a.sweep * t0, a.sweep * t1);
+        // Range of cos(theta - phi) over the piece, with the parameters of its ends.
+        let range = |phi: f64| {
+            let (c0, c1) = ((th0 - phi).cos(), (th1 - phi).cos());
+            let (mut hi, mut lo) = if c0 >= c1 {
+                ((c0, t0), (c1, t1))
+            } else {
+                ((c1, t1), (c0, t0))
+            };
+            let inside = |at: f64| {
+                let th = th0 + (at - th0).rem_euclid(TAU);
+                (th <= th1).then_some(th / a.sweep)
+            };
+            if let Some(t) = inside(phi) {
+                hi = (1.0, t);
+            }
+            if let Some(t) = inside(phi + PI) {
+                lo = (-1.0, t);
+            }
+            (hi, lo)
+        };
+        let r = a.radius;
+        let (g, phi_m) = (w.dot(m), m.dot(a.v).atan2(m.dot(a.u)));
+        let ((mhi, thi), (mlo, tlo)) = range(phi_m);
+        let (across_hi, across_lo) = ((g + r * mhi).abs(), (g + r * mlo).abs());
+        let (across, at) = if across_hi >= across_lo {
+            (across_hi, thi)
+        } else {
+            (across_lo, tlo)
+        };
+        let (s_c, phi_d) = (w.dot(d), d.dot(a.v).atan2(d.dot(a.u)));
+        let ((dhi, _), (dlo, _)) = range(phi_d);
+        let past = (-(s_c + r * dlo)).max(s_c + r * dhi - len).max(0.0);
+        // A tilt within the tolerance moves the distance by at most its share of the
+        // farthest point's offset from the line's start.
+        let slack = 2.0 * tilt.abs() * (w.norm() + r + len);
+        Some(((h * h + across * across + past * past).sqrt() + slack, at))
+    }
+}
+
 impl Prim {
     #[inline]
     pub fn dist_sq(&self, p: Vec3) -> f64 {
@@ -417,6 +483,38 @@ mod tests {
 
         /// The same for straight pieces; exact when the piece is parallel to the plane.
         #[test]
+        fn piece_max_to_line_bounds_and_is_attained(
+            r in 0.1f64..60.0,
+            a0 in -4.0f64..4.0,
+            sweep in prop_oneof![0.05f64..PI, PI..TAU, Just(TAU)],
+            ccw in any::<bool>(),
+            t in (0.0f64..1.0, 0.0f64..1.0),
+            a in (-1.5f64..1.5, -1.5f64..1.5),
+            b in (-1.5f64..1.5, -1.5f64..1.5),
+            h in -0.05f64..0.05,
+        ) {
+            let Some(arc) = flat_arc((0.0, 0.0), 0.0, r, a0, sweep, ccw) else { return Ok(()) };
+            let arc = PlanarArc::new(&arc);
+            let l = Line::new(Vec3::new(a.0 * r, a.1 * r, h), Vec3::new(b.0 * r, b.1 * r, h));
+            let (t0, t1) = (t.0.min(t.1), t.0.max(t.1));
+            let Some((bound, at)) = arc.piece_max_to_line(&l, t0, t1) else { return Ok(()) };
+            prop_assert!((t0..=t1).contains(&at));
+            let tol = 1e-9 * r;
+            let mut inside = true;
+            for i in 0..=500 {
+                let p = arc.arc.eval(t0 + (t1 - t0) * (i as f64 / 500.0));
+                let d = l.dist_sq(p).sqrt();
+                prop_assert!(d <= bound + tol, "{d} > {bound}");
+                let s = l.project(p);
+                inside &= s > 0.0 && s < 1.0;
+            }
+            // Where every foot is on the segment the bound is the maximum, attained at `at`.
+            if inside {
+                let d = l.dist_sq(arc.arc.eval(at)).sqrt();
+                prop_assert!((d - bound).abs() <= tol, "{d} vs {bound}");
+            }
+        }
+
         fn segment_max_bounds_and_is_attained(
             rq in 0.1f64..60.0,
             q0 in -4.0f64..4.0,
