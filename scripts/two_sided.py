@@ -24,8 +24,9 @@ arcs: the chords it cuts them into (written from the firmwares' sources, not fro
 ncsmooth): Marlin 2.0.9.2+ `plan_arc` with its defaults (segments of at most
 `MAX_ARC_SEGMENT_MM` 1 mm, at least 0.1 mm, at least 72 per full turn, a remainder
 segment to the end when the whole ones fall short), Klipper's `gcode_arcs.py`
-(`floor(length / resolution)` equal chords, resolution 1 mm). `exact` (the default) runs
-the circle.
+(`floor(length / resolution)` equal chords, resolution 1 mm); `--arc-segment MM` sets
+Marlin's `MAX_ARC_SEGMENT_MM` or Klipper's resolution. `exact` (the default) runs the
+circle.
 """
 import argparse
 import json
@@ -61,14 +62,15 @@ def densify(p, step):
     return np.vstack([p[:1], pts])
 
 
-def arc_steps(r, sweep, dz, firmware):
-    """Fractions of the sweep at which the firmware's chords of an arc end (the last 1)."""
+def arc_steps(r, sweep, dz, firmware, segment_mm=1.0):
+    """Fractions of the sweep at which the firmware's chords of an arc end (the last 1);
+    `segment_mm` is Marlin's MAX_ARC_SEGMENT_MM or Klipper's resolution."""
     if firmware == "marlin":
         full = sweep >= 2 * math.pi - 1e-12
         flat = r * sweep
         min_segments = 72 if full else max(1, math.ceil(72 * sweep / (2 * math.pi)))
-        nominal = max(math.floor(flat / 1.0), min_segments)
-        seg = min(max(flat / nominal, 0.1), 1.0)
+        nominal = max(math.floor(flat / segment_mm), min_segments)
+        seg = min(max(flat / nominal, min(0.1, segment_mm)), segment_mm)
         n = max(1, math.floor(flat / seg))
         proportion = n * seg / flat if n * seg < flat - 1e-4 else 1.0
         steps = [k * proportion / n for k in range(1, n + 1)]
@@ -77,14 +79,14 @@ def arc_steps(r, sweep, dz, firmware):
         steps[-1] = 1.0
         return steps
     if firmware == "klipper":
-        n = max(1, math.floor(math.hypot(r * sweep, dz) / 1.0))
+        n = max(1, math.floor(math.hypot(r * sweep, dz) / segment_mm))
         return [k / n for k in range(1, n + 1)]
     step = 2 * math.acos(max(-1.0, 1 - ARC_SAG_MM / r)) if r > ARC_SAG_MM else sweep
     n = max(1, int(math.ceil(sweep / step)))
     return [k / n for k in range(1, n + 1)]
 
 
-def read(path, firmware="exact"):
+def read(path, firmware="exact", segment_mm=1.0):
     """Polyline points (x, y, z, e, is_vertex) of the program, in mm; arcs as `firmware`
     runs them (see the module doc)."""
     pos = [0.0, 0.0, 0.0]
@@ -153,7 +155,7 @@ def read(path, firmware="exact"):
             sweep %= 2 * math.pi
             if sweep <= 1e-12:
                 sweep = 2 * math.pi
-            steps = arc_steps(r, sweep, new[2] - pos[2], firmware)
+            steps = arc_steps(r, sweep, new[2] - pos[2], firmware, segment_mm)
             for k, t in enumerate(steps):
                 a = a0 + (sweep * t if ccw else -sweep * t)
                 last = k == len(steps) - 1
@@ -265,10 +267,12 @@ def main():
     ap.add_argument("produced")
     ap.add_argument("--tol", type=float, default=None)
     ap.add_argument("--firmware", choices=["exact", "marlin", "klipper"], default="exact")
+    ap.add_argument("--arc-segment", type=float, default=1.0,
+                    help="Marlin's MAX_ARC_SEGMENT_MM or Klipper's resolution (mm)")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
     p = read(a.original)
-    q = read(a.produced, a.firmware)
+    q = read(a.produced, a.firmware, a.arc_segment)
     ppa, ppb = pieces(p)
     qpa, qpb = pieces(q)
     # Every point of the produced path: its segments sampled SAMPLE_MM apart (a point

@@ -75,6 +75,12 @@ pub struct SmoothArgs {
     /// Klipper arcs only in G17); `generic` gets neither.
     #[arg(long, value_enum, default_value = "linuxcnc")]
     pub dialect: DialectArg,
+    /// The firmware's arc setting (mm) where it is not the dialect's default: grbl's `$12`
+    /// (0.002), Marlin's `MAX_ARC_SEGMENT_MM` (1), Klipper's `[gcode_arcs] resolution`
+    /// (1). An arc is written only where the chords the firmware cuts it into stay within
+    /// --tol. Not for `linuxcnc` and `generic`, which run arcs as circles.
+    #[arg(long, value_name = "MM")]
+    pub arc_segment: Option<f64>,
     /// How smoothed motion is written: `lines` (the default) cuts each run of feed moves
     /// into the longest G1 blocks within --chord (rounding included); `arcs` also fits XY
     /// arcs (G2/G3) where they reach farther; `g5` writes the B-spline method's cubic
@@ -195,6 +201,7 @@ impl SmoothArgs {
             .with_machine(self.acc, self.feed)
             .with_read_options(crate::parse_options().clone());
         job.chord_mm = self.chord;
+        job.arc_segment_mm = self.arc_segment;
         job.emit = self.emit.map(EmitStyle::from);
         Ok(job)
     }

@@ -1309,6 +1309,106 @@ fn refused_constructs_name_themselves() {
     }
 }
 
+/// The written arcs' largest chord sagitta as Klipper runs them at `resolution_mm`
+/// (`floor(length / resolution)` equal chords, at least one), and their number; the
+/// program absolute, in mm, G17.
+fn klipper_arc_sagitta(text: &str, resolution_mm: f64) -> (f64, usize) {
+    let (mut pos, mut worst, mut arcs) = ((0.0f64, 0.0f64), 0.0f64, 0);
+    for line in text.lines() {
+        let line = line.split(';').next().unwrap_or("");
+        let word = |c: char| {
+            line.split_whitespace()
+                .find(|w| w.starts_with(c))
+                .and_then(|w| w[1..].parse::<f64>().ok())
+        };
+        let g = word('G').map(|g| g as i64);
+        let end = (word('X').unwrap_or(pos.0), word('Y').unwrap_or(pos.1));
+        if let (Some(g @ (2 | 3)), Some(i), Some(j)) = (g, word('I'), word('J')) {
+            let c = (pos.0 + i, pos.1 + j);
+            let r = i.hypot(j);
+            let a0 = (pos.1 - c.1).atan2(pos.0 - c.0);
+            let a1 = (end.1 - c.1).atan2(end.0 - c.0);
+            let tau = std::f64::consts::TAU;
+            let mut sweep = if g == 3 { a1 - a0 } else { a0 - a1 }.rem_euclid(tau);
+            if sweep < 1e-9 {
+                sweep = tau;
+            }
+            let n = (r * sweep / resolution_mm).floor().max(1.0);
+            worst = worst.max(r * (1.0 - (0.5 * sweep / n).cos()));
+            arcs += 1;
+        }
+        if line.contains('X') || line.contains('Y') {
+            pos = end;
+        }
+    }
+    (worst, arcs)
+}
+
+#[test]
+fn smooth_counts_the_firmware_arc_setting() {
+    let d = tmpdir("arc_segment");
+    // Quarter turns of a 10 mm circle in 0.5 degree lines, between sharp corners.
+    let mut src = String::from("G21 G90\nG0 X10 Y0\nG1 F1200\n");
+    for corner in 0..4 {
+        for k in 1..=180 {
+            let a = std::f64::consts::FRAC_PI_2 * (corner as f64 + k as f64 / 180.0);
+            src += &format!("X{:.4} Y{:.4}\n", 10.0 * a.cos(), 10.0 * a.sin());
+        }
+        src += "X0 Y0\n";
+        let a = std::f64::consts::FRAC_PI_2 * (corner as f64 + 1.0);
+        src += &format!("X{:.4} Y{:.4}\n", 10.0 * a.cos(), 10.0 * a.sin());
+    }
+    src += "M2\n";
+    let f = write(&d, "arcs.gcode", src.as_bytes());
+    let smooth = |extra: &[&str]| {
+        let out = d.join("out.gcode");
+        let mut args = vec![
+            "smooth",
+            f.to_str().unwrap(),
+            "--method",
+            "none",
+            "--emit",
+            "arcs",
+            "--tol",
+            "0.05",
+            "--dialect",
+            "klipper",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read_to_string(&out).unwrap()
+    };
+    // Klipper's default resolution: arcs whose 1 mm chords stay within the tolerance.
+    let (sag, arcs) = klipper_arc_sagitta(&smooth(&[]), 1.0);
+    assert!(arcs > 0 && sag <= 0.05, "{arcs} arcs, sagitta {sag}");
+    // A coarser resolution: 3 mm chords sag 0.11 mm on this radius, so no arc written
+    // may be cut that coarsely.
+    let coarse = smooth(&["--arc-segment", "3"]);
+    let (sag, coarse_arcs) = klipper_arc_sagitta(&coarse, 3.0);
+    assert!(sag <= 0.05, "{coarse_arcs} arcs, sagitta {sag} at 3 mm");
+    assert!(coarse_arcs < arcs, "{coarse_arcs} vs {arcs}");
+    // A dialect running circles has no such setting; a setting must be a length.
+    for (dialect, seg) in [("generic", "1"), ("linuxcnc", "1"), ("klipper", "0")] {
+        let never = d.join("never.gcode");
+        let o = run(&[
+            "smooth",
+            f.to_str().unwrap(),
+            "--dialect",
+            dialect,
+            "--arc-segment",
+            seg,
+            "-o",
+            never.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{dialect} {seg}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains("--arc-segment"));
+        assert!(!never.exists());
+    }
+}
+
 /// The dialect decides the bound on the controller's blending (LinuxCNC's `G64 P Q`, paid
 /// from the tolerance) and the emitter the block lengths: long lines are fewer and longer
 /// than the move-by-move flattening, and both read back within the tolerance.

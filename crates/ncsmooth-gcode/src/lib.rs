@@ -87,6 +87,7 @@ pub use ncsmooth::path::Units;
 pub use source::{flags, LineInfo, PathMode, Plane, SourceMap, WriteState};
 
 // Writing: back into the program's own text, or a toolpath without source.
+pub use controller::arcs::ArcChords;
 pub use controller::dialect::Dialect;
 pub use controller::linuxcnc::Blend;
 pub use write::rewrite::{rewrite, BlockFloor, Emit, RewriteError, RewriteOptions};

@@ -14,9 +14,10 @@
 //! * Klipper (`[gcode_arcs] resolution`, 1 mm): `floor(r a / resolution)` equal chords,
 //!   at least one, so a short arc may be one chord of up to twice the resolution.
 //!
-//! A firmware built or configured otherwise (older Marlin: `MM_PER_ARC_SEGMENT` and 24
-//! segments per turn; a coarser Klipper resolution) cuts longer chords than these; the
-//! dialect then under-counts them.
+//! A firmware built or configured otherwise (a longer `MAX_ARC_SEGMENT_MM`, a coarser
+//! Klipper resolution, a larger `$12`) cuts longer chords than these: its setting is given
+//! with [`ArcChords::with_segment_mm`] (`smooth --arc-segment`). Marlin before 2.0.9.2
+//! (`MM_PER_ARC_SEGMENT`, 24 segments per turn) is not modelled.
 
 use std::f64::consts::TAU;
 
@@ -50,6 +51,25 @@ pub enum ArcChords {
 }
 
 impl ArcChords {
+    /// The same rule with the firmware's one length setting at `mm`: grbl's `$12` (the
+    /// chords' sagitta), Marlin's `MAX_ARC_SEGMENT_MM` (the longest segment; its shortest
+    /// follows when longer than it), Klipper's `[gcode_arcs] resolution`. `None` for a
+    /// controller that runs the circle ([`ArcChords::Exact`]).
+    pub fn with_segment_mm(self, mm: f64) -> Option<ArcChords> {
+        Some(match self {
+            ArcChords::Exact => return None,
+            ArcChords::Tolerance { .. } => ArcChords::Tolerance { mm },
+            ArcChords::Segments {
+                min_mm, per_turn, ..
+            } => ArcChords::Segments {
+                max_mm: mm,
+                min_mm: min_mm.min(mm),
+                per_turn,
+            },
+            ArcChords::Floor { .. } => ArcChords::Floor { resolution_mm: mm },
+        })
+    }
+
     /// The most the controller's chords lie inside an arc of radius `r_mm` sweeping
     /// `sweep_rad` (0 for [`ArcChords::Exact`]).
     pub fn sagitta_mm(self, r_mm: f64, sweep_rad: f64) -> f64 {
@@ -98,5 +118,35 @@ mod tests {
             ArcChords::Tolerance { mm: 0.002 }.sagitta_mm(1.0, 1.0),
             0.002
         );
+    }
+
+    #[test]
+    fn a_firmware_setting_lengthens_the_chords() {
+        let marlin = ArcChords::Segments {
+            max_mm: 1.0,
+            min_mm: 0.1,
+            per_turn: 72.0,
+        };
+        // 2 mm segments on a large arc: four times the sagitta of 1 mm ones.
+        let long = marlin.with_segment_mm(2.0).unwrap();
+        let ratio = long.sagitta_mm(100.0, 1.0) / marlin.sagitta_mm(100.0, 1.0);
+        assert!((ratio - 4.0).abs() < 1e-3, "{ratio}");
+        // Shorter than Marlin's shortest: the shortest follows.
+        assert_eq!(
+            marlin.with_segment_mm(0.05),
+            Some(ArcChords::Segments {
+                max_mm: 0.05,
+                min_mm: 0.05,
+                per_turn: 72.0
+            })
+        );
+        let klipper = ArcChords::Floor { resolution_mm: 1.0 };
+        let coarse = klipper.with_segment_mm(3.0).unwrap();
+        assert!(coarse.sagitta_mm(10.0, 0.5) > klipper.sagitta_mm(10.0, 0.5));
+        assert_eq!(
+            ArcChords::Tolerance { mm: 0.002 }.with_segment_mm(0.01),
+            Some(ArcChords::Tolerance { mm: 0.01 })
+        );
+        assert_eq!(ArcChords::Exact.with_segment_mm(1.0), None);
     }
 }

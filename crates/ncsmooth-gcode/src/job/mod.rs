@@ -142,6 +142,12 @@ pub struct SmoothJob {
     /// How the program and the written text are read (the units before a G20/G21).
     /// Default [`ParseOptions::default`].
     pub read: ParseOptions,
+    /// The firmware's arc setting (mm) where it is not the dialect's default: grbl's
+    /// `$12`, Marlin's `MAX_ARC_SEGMENT_MM`, Klipper's `[gcode_arcs] resolution`
+    /// ([`crate::ArcChords::with_segment_mm`]); the written arcs count those chords.
+    /// Default `None`: the dialect's ([`Dialect::arc_chords`]). An input error for a
+    /// dialect that runs arcs as circles.
+    pub arc_segment_mm: Option<f64>,
 }
 
 impl SmoothJob {
@@ -160,6 +166,7 @@ impl SmoothJob {
             acc_mm_s2: None,
             feed_mm_s: None,
             read: ParseOptions::default(),
+            arc_segment_mm: None,
         }
     }
 
@@ -172,6 +179,12 @@ impl SmoothJob {
     /// The controller written for.
     pub fn with_dialect(mut self, dialect: Dialect) -> SmoothJob {
         self.dialect = dialect;
+        self
+    }
+
+    /// The firmware's arc setting (mm), see [`SmoothJob::arc_segment_mm`].
+    pub fn with_arc_segment_mm(mut self, mm: f64) -> SmoothJob {
+        self.arc_segment_mm = Some(mm);
         self
     }
 

@@ -9,7 +9,7 @@ use crate::controller::linuxcnc::budget::*;
 use crate::controller::linuxcnc::executed::Executed;
 use crate::controller::linuxcnc::{Blend, CornerBlend};
 use crate::write::rewrite::{BlockFloor, Emit};
-use crate::{Program, RewriteOptions};
+use crate::{ArcChords, Program, RewriteOptions};
 use ncsmooth::smooth::band_fit::BandFitOptions;
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, Smoothed as Curves};
@@ -202,6 +202,27 @@ impl SmoothJob {
     }
 }
 
+/// How the controller runs arcs: the dialect's rule, with the firmware's setting
+/// where one is given (an input error where the dialect runs circles or the length
+/// is not one).
+fn arc_chords(job: &SmoothJob) -> Result<ArcChords, JobError> {
+    let rule = job.dialect.arc_chords();
+    let Some(mm) = job.arc_segment_mm else {
+        return Ok(rule);
+    };
+    if !(mm > 0.0 && mm <= ARC_SEGMENT_MAX_MM) {
+        return Err(JobError::BadInput(format!(
+            "--arc-segment must be a length in (0, {ARC_SEGMENT_MAX_MM}] mm, got {mm}"
+        )));
+    }
+    rule.with_segment_mm(mm).ok_or_else(|| {
+        JobError::BadInput(format!(
+            "--arc-segment: {} runs arcs as circles, it has no arc segment setting",
+            job.dialect.name()
+        ))
+    })
+}
+
 /// The tolerance's shares for one build (lengths in mm).
 struct Shares {
     tol: f64,
@@ -244,6 +265,7 @@ impl Shares {
                 "--chord must be in (0, tol), got {chord}"
             )));
         }
+        arc_chords(job)?;
         // Inch programs are written in inches: their rounding applies where they are.
         // `none` builds no curves, but rounding still moves its points and off-plane arcs
         // are still flattened: the same budget applies.
@@ -352,6 +374,7 @@ impl SmoothJob {
                 dialect.name()
             ))
             .for_dialect(dialect, s.blend)
+            .with_arc_chords(arc_chords(self).unwrap_or(dialect.arc_chords()))
             .with_verbatim_blend(s.verbatim_blend)
             .with_blend_limits(self.acc_mm_s2, self.feed_mm_s)
             .with_even_out(matches!(rule, BudgetRule::Executed { even_out: true, .. }))

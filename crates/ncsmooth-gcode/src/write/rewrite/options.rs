@@ -188,6 +188,12 @@ impl RewriteOptions {
         }
     }
 
+    /// The same options with another way the controller runs arcs (a firmware set
+    /// otherwise than its dialect's defaults, [`ArcChords::with_segment_mm`]).
+    pub fn with_arc_chords(self, arc_chords: ArcChords) -> RewriteOptions {
+        RewriteOptions { arc_chords, ..self }
+    }
+
     /// The same options with [`RewriteOptions::rewrite_unchanged`] set to `all`.
     pub fn with_rewrite_unchanged(self, all: bool) -> RewriteOptions {
         RewriteOptions {
