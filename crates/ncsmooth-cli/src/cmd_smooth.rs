@@ -77,8 +77,9 @@ pub struct SmoothArgs {
     pub dialect: DialectArg,
     /// The firmware's arc setting (mm) where it is not the dialect's default: grbl's `$12`
     /// (0.002), Marlin's `MAX_ARC_SEGMENT_MM` (1), Klipper's `[gcode_arcs] resolution`
-    /// (1). An arc is written only where the chords the firmware cuts it into stay within
-    /// --tol. Not for `linuxcnc` and `generic`, which run arcs as circles.
+    /// (1). An arc is written only where the chords the firmware cuts it into fit the
+    /// budget (docs/controllers.md). Not for `linuxcnc` and `generic`, which run arcs as
+    /// circles.
     #[arg(long, value_name = "MM")]
     pub arc_segment: Option<f64>,
     /// How smoothed motion is written: `lines` (the default) cuts each run of feed moves

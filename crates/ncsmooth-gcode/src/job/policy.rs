@@ -18,8 +18,8 @@ pub(crate) const VERIFY_ACCURACY_SHARE: f64 = 1e-3;
 /// Largest tolerance (mm): a deviation larger than a machine's travel bounds nothing, and
 /// the `G64 P` it gives would not be a number LinuxCNC reads.
 pub(crate) const TOL_MAX_MM: f64 = 1000.0;
-/// Largest firmware arc setting (mm) `--arc-segment` takes: longer segments than this
-/// are no arc worth writing.
+/// Largest firmware arc setting (mm) `--arc-segment` takes (a segment length, or grbl's
+/// arc tolerance): chords that long are no arc worth writing.
 pub(crate) const ARC_SEGMENT_MAX_MM: f64 = 100.0;
 /// Smallest curve tolerance, as a share of the tolerance, smoothing is asked to build to.
 pub(crate) const MIN_CURVE_TOL_SHARE: f64 = 0.25;

@@ -237,6 +237,8 @@ struct Shares {
     budget: Budget,
     curve_tol: f64,
     compress: bool,
+    /// How the controller runs arcs (the dialect's rule, the firmware's setting given).
+    arc_chords: ArcChords,
 }
 
 impl Shares {
@@ -265,7 +267,7 @@ impl Shares {
                 "--chord must be in (0, tol), got {chord}"
             )));
         }
-        arc_chords(job)?;
+        let arc_chords = arc_chords(job)?;
         // Inch programs are written in inches: their rounding applies where they are.
         // `none` builds no curves, but rounding still moves its points and off-plane arcs
         // are still flattened: the same budget applies.
@@ -307,6 +309,7 @@ impl Shares {
             budget,
             curve_tol,
             compress,
+            arc_chords,
         })
     }
 
@@ -368,13 +371,15 @@ impl SmoothJob {
         let (min_block_mm, min_block_s) = (dialect.min_block_mm(0.0), dialect.min_block_s());
         RewriteOptions::new(self.decimals.min(crate::numbers::MAX_DECIMALS), s.chord)
             .with_header(format!(
-                "ncsmooth {} --method {} --tol {tol} --dialect {} (from {name})",
+                "ncsmooth {} --method {} --tol {tol} --dialect {}{} (from {name})",
                 env!("CARGO_PKG_VERSION"),
                 method.name(),
-                dialect.name()
+                dialect.name(),
+                self.arc_segment_mm
+                    .map_or(String::new(), |mm| format!(" --arc-segment {mm}"))
             ))
             .for_dialect(dialect, s.blend)
-            .with_arc_chords(arc_chords(self).unwrap_or(dialect.arc_chords()))
+            .with_arc_chords(s.arc_chords)
             .with_verbatim_blend(s.verbatim_blend)
             .with_blend_limits(self.acc_mm_s2, self.feed_mm_s)
             .with_even_out(matches!(rule, BudgetRule::Executed { even_out: true, .. }))

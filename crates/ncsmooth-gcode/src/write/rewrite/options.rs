@@ -189,7 +189,8 @@ impl RewriteOptions {
     }
 
     /// The same options with another way the controller runs arcs (a firmware set
-    /// otherwise than its dialect's defaults, [`ArcChords::with_segment_mm`]).
+    /// otherwise than its dialect's defaults, [`ArcChords::with_segment_mm`]); after
+    /// [`RewriteOptions::for_dialect`], which sets the dialect's.
     pub fn with_arc_chords(self, arc_chords: ArcChords) -> RewriteOptions {
         RewriteOptions { arc_chords, ..self }
     }
