@@ -53,7 +53,7 @@ const SPLIT_AT_MAX_MARGIN: f64 = 1e-3;
 
 /// Output primitives per task of (a), the tasks measured in parallel: a fixed count, so
 /// the result does not depend on the number of threads (each task's branch and bound
-/// prunes against its own best value).
+/// prunes against the shared floor and its own best value).
 const OUTPUT_TASK_PRIMS: usize = 512;
 
 /// Fewest programmed vertices for which the vertex queries (b) use a tree over the
@@ -261,18 +261,21 @@ fn output_to_programmed(
     // A floor for every task's pruning: the distance at each primitive's middle (a point
     // of the output, so the floor is attained), the same whatever the thread count.
     let floors = crate::par::map(tasks, 2, |k| middles_to_programmed(part(k), prog));
-    let mut best = (0.0, first, 0, 0);
-    for (d, at, src, queries) in floors {
-        if d > best.0 {
-            best = (d, at, src, best.3);
-        }
-        best.3 += queries;
-    }
+    let best = largest((0.0, first, 0, 0), floors);
     let floor = best.0;
     let parts = crate::par::map(tasks, 2, |k| {
-        output_part_to_programmed(part(k), prog, slack, floor, first)
+        output_part_to_programmed(part(k), prog, slack, floor)
     });
-    // The largest, the earliest of equals; a task reports only values above the floor.
+    // A task reports only values above the floor.
+    largest(best, parts)
+}
+
+/// The largest of `best` and `parts` (distance, where, source), the earliest of equals,
+/// with the queries of all added up.
+fn largest(
+    mut best: (f64, Vec3, u32, usize),
+    parts: Vec<(f64, Vec3, u32, usize)>,
+) -> (f64, Vec3, u32, usize) {
     for (d, at, src, queries) in parts {
         if d > best.0 {
             best = (d, at, src, best.3);
@@ -306,11 +309,10 @@ fn output_part_to_programmed(
     prog: &Bvh,
     slack: f64,
     floor: f64,
-    first: Vec3,
 ) -> (f64, Vec3, u32, usize) {
     let mut q = Query::new(prog);
     let mut best = floor;
-    let mut best_at = first;
+    let mut best_at = Vec3::default();
     let mut best_src = 0u32;
     let mut stack: Vec<Piece> = Vec::with_capacity(64);
     let mut last: Option<(Vec3, f64, usize)> = None;
@@ -321,8 +323,10 @@ fn output_part_to_programmed(
         // A primitive starting where the last ended starts at its end's distance.
         let (d0, h0) = match last {
             Some((p, d, h)) if p == p0 => (d, h),
-            Some((_, _, h)) => q.dist_or_below(p0, h, h, best),
-            None => q.dist_or_below(p0, q.hint, q.hint, best),
+            _ => {
+                let h = last.map_or(q.hint, |l| l.2);
+                q.dist_or_below(p0, h, h, best)
+            }
         };
         let (d1, h1) = q.dist_or_below(p1, h0, h0, best);
         last = Some((p1, d1, h1));
