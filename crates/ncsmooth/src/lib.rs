@@ -47,7 +47,7 @@ pub mod decimal;
 pub mod feed;
 pub mod geom;
 pub mod interp;
-mod par;
+pub mod par;
 pub mod path;
 pub mod profiles;
 pub mod smooth;

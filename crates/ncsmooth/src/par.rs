@@ -4,7 +4,8 @@
 //! [`map`] cuts `n` items into contiguous chunks that the threads take in turn (std scoped
 //! threads), the results concatenated in order. Each item is computed alone, so the result
 //! never depends on the number of threads; below a caller's threshold, or with one thread,
-//! it is a plain loop. The planner computes its grid on a second thread when there are two
+//! it is a plain loop. [`join`] runs two independent pieces of work side by side. The
+//! planner computes its grid on a second thread when there are two
 //! (`feed::lookahead::plan_stream`), with the same result. The setpoint pipeline
 //! (`interp::execute_streamed`: reading, planning, interpolating and writing as stages)
 //! runs its stages on threads of their own whatever the setting: they hand data along
@@ -80,6 +81,27 @@ where
         out.extend(p);
     }
     out
+}
+
+/// `(a(), b())`: `a` on a second thread while the calling thread runs `b` when
+/// [`threads`] allows two, else one after the other; for two independent pieces of work
+/// (an index built while a program is written, a check beside another).
+pub fn join<A, B>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B) -> (A, B)
+where
+    A: Send,
+{
+    if threads() < 2 {
+        let ra = a();
+        return (ra, b());
+    }
+    std::thread::scope(|scope| {
+        let spawned = scope.spawn(a);
+        let rb = b();
+        let ra = spawned
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (ra, rb)
+    })
 }
 
 #[cfg(test)]

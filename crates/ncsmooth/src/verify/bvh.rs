@@ -1,5 +1,7 @@
 //! A static bounding-volume hierarchy over primitives for nearest-distance queries.
-//! Built by median splits on the longest axis of the centroids (O(n log n)); queried
+//! Built top-down on the longest axis of the centroids, each node cut where the surface
+//! area heuristic over 16 bins of them is least (O(n log n); a path's long lines among
+//! short ones get boxes of their own instead of widening their neighbours'); queried
 //! depth-first, nearer child first, pruning boxes farther than the best distance so far.
 //! An initial upper bound (a "hint", e.g. the distance to the primitive nearest the
 //! previous query point) makes sequential queries along a path nearly O(log n).
@@ -9,15 +11,18 @@ use crate::geom::{Aabb, Vec3};
 
 /// Primitives per leaf.
 const LEAF_SIZE: usize = 4;
+/// Bins of the centroids a node's split is chosen among (see [`binned_split`]).
+const SPLIT_BINS: usize = 16;
 /// Up to this many primitives a query scans them all: no boxes to compute, no tree to
 /// build (the blend and run measurements of the smoothing methods compare a curve with
 /// one or two programmed pieces, thousands of times).
 const LINEAR_MAX_PRIMS: usize = 8;
 /// Depth of the query stack: a depth-first query holds at most one pending node per
-/// level plus the two children of the node it expands, and median splits keep the depth
-/// at `log2(n / LEAF_SIZE) + 1`, so this is ample for any primitive count an index can
-/// hold (`u32`). A fixed stack keeps queries free of allocation.
-const STACK_DEPTH: usize = 72;
+/// level plus the two children of the node it expands, and splits that keep at least a
+/// quarter of a node's primitives on each side keep the depth at most
+/// `ln(n / LEAF_SIZE) / ln(4 / 3) + 1`, 74 for the most primitives an index can hold
+/// (`u32`). A fixed stack keeps queries free of allocation.
+const STACK_DEPTH: usize = 80;
 
 struct Node {
     bbox: Aabb,
@@ -30,6 +35,9 @@ struct Node {
 pub(crate) struct Bvh {
     nodes: Vec<Node>,
     pub prims: Vec<Prim>,
+    /// For each source, the position in `prims` of one of its primitives (`u32::MAX`
+    /// for a source with none).
+    by_source: Vec<u32>,
 }
 
 /// Result of a nearest query.
@@ -49,7 +57,12 @@ impl Bvh {
         // two points or an arc's stored box).
         let mut nodes = Vec::with_capacity(2 * prims.len() / LEAF_SIZE + 1);
         build(&mut prims, 0, &mut nodes);
-        Bvh { nodes, prims }
+        let by_source = by_source(&prims);
+        Bvh {
+            nodes,
+            prims,
+            by_source,
+        }
     }
 
     /// An index that scans all of `prims` at every query: for a handful of queries a tree
@@ -57,8 +70,15 @@ impl Bvh {
     pub fn linear(prims: Vec<Prim>) -> Bvh {
         Bvh {
             nodes: Vec::new(),
+            by_source: by_source(&prims),
             prims,
         }
+    }
+
+    /// The position in `prims` of a primitive of `source`, if it has one.
+    pub fn of_source(&self, source: u32) -> Option<usize> {
+        let i = *self.by_source.get(source as usize)?;
+        (i != u32::MAX).then_some(i as usize)
     }
 
     /// Nearest primitive to `p` among those closer than `sqrt(bound_sq)`.
@@ -113,6 +133,103 @@ impl Bvh {
     }
 }
 
+impl Bvh {
+    /// Whether some primitive lies within `sqrt(r_sq)` of `p` (distance at most that),
+    /// `hint` tried first: a search that stops at the first one, and prunes every box
+    /// farther than the radius (for a point that cannot raise a maximum already found).
+    pub fn any_within(&self, p: Vec3, r_sq: f64, hint: usize) -> bool {
+        if self.prims.get(hint).is_some_and(|h| h.dist_sq(p) <= r_sq) {
+            return true;
+        }
+        if self.nodes.is_empty() {
+            return self.prims.iter().any(|x| x.dist_sq(p) <= r_sq);
+        }
+        let mut stack = [0u32; STACK_DEPTH];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let n = &self.nodes[stack[top] as usize];
+            if n.bbox.dist_sq(p) > r_sq {
+                continue;
+            }
+            if n.leaf {
+                let prims = &self.prims[n.start as usize..n.end as usize];
+                if prims.iter().any(|x| x.dist_sq(p) <= r_sq) {
+                    return true;
+                }
+            } else {
+                let (l, r) = (n.start, n.end);
+                let dl = self.nodes[l as usize].bbox.dist_sq(p);
+                let dr = self.nodes[r as usize].bbox.dist_sq(p);
+                let (first, second) = if dl < dr { (r, l) } else { (l, r) };
+                stack[top] = first;
+                stack[top + 1] = second;
+                top += 2;
+            }
+        }
+        false
+    }
+}
+
+/// For each source up to the largest of `prims`, the position of its last primitive.
+fn by_source(prims: &[Prim]) -> Vec<u32> {
+    let n = prims
+        .iter()
+        .map(|p| p.source as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut out = vec![u32::MAX; n];
+    for (i, p) in prims.iter().enumerate() {
+        out[p.source as usize] = i as u32;
+    }
+    out
+}
+
+/// Half the surface area of a box (0 for an empty one): the surface area heuristic's
+/// measure of how likely a query is to enter it.
+fn half_area(b: Aabb) -> f64 {
+    let e = b.max - b.min;
+    (e.x * e.y + e.y * e.z + e.z * e.x).max(0.0)
+}
+
+/// How many of `items` (centroids in `cbox`) go to the left child: the cut between
+/// [`SPLIT_BINS`] equal bins of the centroids along `axis` that minimises the surface
+/// area heuristic (each side's box area times its count), the median when the centroids
+/// do not spread along the axis or every cut leaves a side empty; kept between a quarter
+/// and three quarters of the items, which bounds the depth (see [`STACK_DEPTH`]).
+fn binned_split(items: &[Prim], axis: usize, cbox: Aabb) -> usize {
+    let (lo, hi, n) = (cbox.min[axis], cbox.max[axis], items.len());
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+        return n / 2;
+    }
+    let mut bins = [(Aabb::EMPTY, 0usize); SPLIT_BINS];
+    let scale = SPLIT_BINS as f64 / (hi - lo);
+    for b in items.iter().map(Prim::bbox) {
+        let k = (((b.center()[axis] - lo) * scale) as usize).min(SPLIT_BINS - 1);
+        bins[k] = (bins[k].0.union(b), bins[k].1 + 1);
+    }
+    // Area and count of the bins from each cut to the right end.
+    let mut right = [(0.0f64, 0usize); SPLIT_BINS];
+    let mut acc = (Aabb::EMPTY, 0);
+    for k in (1..SPLIT_BINS).rev() {
+        acc = (acc.0.union(bins[k].0), acc.1 + bins[k].1);
+        right[k] = (half_area(acc.0), acc.1);
+    }
+    let mut acc = (Aabb::EMPTY, 0);
+    let mut best = (f64::INFINITY, n / 2);
+    for k in 1..SPLIT_BINS {
+        acc = (acc.0.union(bins[k - 1].0), acc.1 + bins[k - 1].1);
+        if acc.1 == 0 || acc.1 == n {
+            continue;
+        }
+        let cost = half_area(acc.0) * acc.1 as f64 + right[k].0 * right[k].1 as f64;
+        if cost < best.0 {
+            best = (cost, acc.1);
+        }
+    }
+    best.1.clamp(n / 4, n - n / 4)
+}
+
 fn build(items: &mut [Prim], offset: usize, nodes: &mut Vec<Node>) -> u32 {
     let mut bbox = Aabb::EMPTY;
     let mut cbox = Aabb::EMPTY;
@@ -144,7 +261,7 @@ fn build(items: &mut [Prim], offset: usize, nodes: &mut Vec<Node>) -> u32 {
     } else {
         2
     };
-    let mid = items.len() / 2;
+    let mid = binned_split(items, axis, cbox);
     items.select_nth_unstable_by(mid, |a, b| {
         a.bbox().center()[axis].total_cmp(&b.bbox().center()[axis])
     });
@@ -190,6 +307,46 @@ mod tests {
             .collect()
     }
 
+    fn depth(bvh: &Bvh, node: usize) -> usize {
+        let n = &bvh.nodes[node];
+        if n.leaf {
+            1
+        } else {
+            1 + depth(bvh, n.start as usize).max(depth(bvh, n.end as usize))
+        }
+    }
+
+    /// The surface area heuristic would cut the farthest of exponentially spaced short
+    /// lines off the rest at every level; the quarter rule keeps the depth within the
+    /// stack's bound.
+    #[test]
+    fn depth_stays_within_the_stack() {
+        let n = 3000;
+        let ps: Vec<Prim> = (0..n)
+            .map(|i| {
+                let a = Vec3::new(1.2f64.powi(i), 0.0, 0.0);
+                Prim {
+                    geom: PrimGeom::Line(Line::new(a, a + Vec3::new(0.0, 1.0, 0.0))),
+                    source: i as u32,
+                }
+            })
+            .collect();
+        let bvh = Bvh::new(ps);
+        let bound = ((n as f64 / LEAF_SIZE as f64).ln() / (4.0f64 / 3.0).ln()).ceil() as usize + 1;
+        let d = depth(&bvh, 0);
+        assert!(
+            d <= bound && bound + 2 <= STACK_DEPTH,
+            "depth {d}, bound {bound}"
+        );
+        let p = Vec3::new(0.5, 0.5, 0.0);
+        let brute = bvh
+            .prims
+            .iter()
+            .map(|x| x.dist_sq(p))
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(bvh.nearest(p, f64::INFINITY).dist_sq, brute);
+    }
+
     #[test]
     fn nearest_is_the_brute_force_minimum() {
         // Below and above the linear-scan size, with and without a bound.
@@ -208,6 +365,11 @@ mod tests {
                 assert_eq!(bvh.prims[hit.prim].dist_sq(p), brute);
                 // A bound below the minimum finds nothing.
                 assert_eq!(bvh.nearest(p, 0.5 * brute).prim, usize::MAX);
+                // The minimum itself is within reach, less is not, whatever the hint.
+                for hint in [0, n / 2, n - 1, usize::MAX] {
+                    assert!(bvh.any_within(p, brute, hint));
+                    assert!(brute == 0.0 || !bvh.any_within(p, brute * (1.0 - 1e-9), hint));
+                }
             }
         }
     }

@@ -131,8 +131,19 @@ pub fn joint(
 
 /// Audits every joint of `path`; also returns the per-joint records.
 pub fn continuity_joints(path: &Toolpath) -> (Continuity, Vec<Joint>) {
-    let mut c = Continuity::default();
     let mut joints = Vec::new();
+    let c = audit(path, |j| joints.push(j));
+    (c, joints)
+}
+
+/// Audits every joint of `path`.
+pub fn continuity(path: &Toolpath) -> Continuity {
+    audit(path, |_| {})
+}
+
+/// The audit of every joint of `path`, each joint's record handed to `record`.
+fn audit(path: &Toolpath, mut record: impl FnMut(Joint)) -> Continuity {
+    let mut c = Continuity::default();
     let mut prev: Option<(usize, &crate::path::Move)> = None;
     let mut idx = 0usize;
     for b in &path.blocks {
@@ -164,7 +175,7 @@ pub fn continuity_joints(path: &Toolpath) -> (Continuity, Vec<Joint>) {
                     c.max_g2_curvature_jump = c.max_g2_curvature_jump.max(jump);
                 }
             }
-            joints.push(Joint {
+            record(Joint {
                 move_index: pi,
                 line: m.line,
                 at: m.segment.start(),
@@ -177,12 +188,7 @@ pub fn continuity_joints(path: &Toolpath) -> (Continuity, Vec<Joint>) {
         prev = Some((idx, m));
         idx += 1;
     }
-    (c, joints)
-}
-
-/// Audits every joint of `path`.
-pub fn continuity(path: &Toolpath) -> Continuity {
-    continuity_joints(path).0
+    c
 }
 
 #[cfg(test)]

@@ -38,8 +38,9 @@
 //! each pruning against a floor measured first (the distance at every primitive's
 //! middle); a point whose distance to the primitive nearest its neighbours' is within
 //! the best value so far needs no query (an upper bound serves the bounds as well).
-//! Memory: each side's primitives once (64 bytes a line), side (a) measured before the
-//! output's primitives become the index of side (b).
+//! (b) runs in tasks of a fixed number of vertices. The programmed side is indexed once
+//! ([`ProgramIndex`]) for any number of outputs. Memory: each side's primitives once (64
+//! bytes a line), the output's becoming the index of side (b) after side (a).
 
 use super::bvh::{Bvh, Hit};
 use super::prim::{push_prims, Prim, PrimGeom};
@@ -98,8 +99,7 @@ impl Deviation {
 /// place (after a `G28`, a slicer's repeated `G1 Z0.2` with X and Y not yet established
 /// sits at the reader's placeholder for them), and a writer skips it.
 pub fn deviation(output: &Toolpath, programmed: &Toolpath, accuracy: f64) -> Deviation {
-    let (out, prog) = (with_length(output), with_length(programmed));
-    deviation_segments(&out, &prog, accuracy)
+    ProgramIndex::new(programmed, accuracy).deviation(output)
 }
 
 /// The moves of `tp` but its zero-length lines, with their source lines.
@@ -116,25 +116,177 @@ pub fn deviation_segments(
     programmed: &[(&Segment, u32)],
     accuracy: f64,
 ) -> Deviation {
-    measure(output, programmed, accuracy, None).0
+    ProgramIndex::of_segments(programmed.to_vec(), accuracy)
+        .measure(output, None)
+        .0
 }
 
-/// Calls `f(vertex, line, distance)` for every programmed vertex (the start, then the end
-/// of every segment, tagged with its line) with its distance to the primitives of `out`.
-fn for_each_vertex_distance(
+/// The programmed path indexed once for [`deviation`] against any number of outputs
+/// (the builds of one program, or an index built while the output is being written):
+/// the same figures as [`deviation`], which builds one per call.
+///
+/// ```
+/// use ncsmooth::geom::Vec3;
+/// use ncsmooth::path::Toolpath;
+/// use ncsmooth::verify::{deviation, ProgramIndex};
+///
+/// let square = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)];
+/// let program = Toolpath::from_polyline(&square, None);
+/// let cut = Toolpath::from_polyline(&[square[0], Vec3::new(0.9, 0.0, 0.0), square[2]], None);
+/// let index = ProgramIndex::new(&program, 1e-9);
+/// assert_eq!(index.deviation(&cut), deviation(&cut, &program, 1e-9));
+/// assert!((index.deviation(&cut).vertex_to_output_mm - 0.1 / 1.01f64.sqrt()).abs() < 1e-9);
+/// ```
+pub struct ProgramIndex<'a> {
+    /// The programmed moves measured, with their source lines.
+    programmed: Vec<(&'a Segment, u32)>,
+    /// Their primitives.
+    bvh: Bvh,
+    /// Accuracy of the figures (mm).
+    accuracy: f64,
+}
+
+impl<'a> ProgramIndex<'a> {
+    /// The index of `programmed` (its moves but zero-length lines, see [`deviation`]) for
+    /// figures within `accuracy` mm (a non-positive or non-finite one is taken as 1 nm).
+    pub fn new(programmed: &'a Toolpath, accuracy: f64) -> ProgramIndex<'a> {
+        ProgramIndex::of_segments(with_length(programmed), accuracy)
+    }
+
+    fn of_segments(programmed: Vec<(&'a Segment, u32)>, accuracy: f64) -> ProgramIndex<'a> {
+        let accuracy = if accuracy > 0.0 && accuracy.is_finite() {
+            accuracy
+        } else {
+            1e-6
+        };
+        let flat = accuracy * 0.25;
+        let mut prims = Vec::with_capacity(programmed.len());
+        for (i, (s, _)) in programmed.iter().enumerate() {
+            push_prims(s, i as u32, flat, &mut prims);
+        }
+        ProgramIndex {
+            programmed,
+            bvh: Bvh::new(prims),
+            accuracy,
+        }
+    }
+
+    /// Accuracy of the figures (mm).
+    pub fn accuracy_mm(&self) -> f64 {
+        self.accuracy
+    }
+
+    /// The deviation of `output` from the indexed program (see [`deviation`]).
+    pub fn deviation(&self, output: &Toolpath) -> Deviation {
+        self.measure(&with_length(output), None).0
+    }
+
+    /// The deviation of `output`, and the number of nearest-distance queries (a) made (the
+    /// work of the branch and bound, for the tests); with `vertex_distances`, the distance
+    /// of every programmed vertex to the output in program order.
+    fn measure(
+        &self,
+        output: &[(&Segment, u32)],
+        vertex_distances: Option<&mut Vec<f64>>,
+    ) -> (Deviation, usize) {
+        let (programmed, accuracy) = (&self.programmed, self.accuracy);
+        let mut out_prims = Vec::with_capacity(output.len());
+        for (i, (s, _)) in output.iter().enumerate() {
+            push_prims(s, i as u32, accuracy * 0.25, &mut out_prims);
+        }
+        let mut dev = Deviation {
+            output_to_programmed_mm: 0.0,
+            output_at: output.first().map(|s| s.0.start()).unwrap_or_default(),
+            output_line: output.first().map(|s| s.1).unwrap_or(0),
+            vertex_to_output_mm: 0.0,
+            vertex_at: programmed.first().map(|s| s.0.start()).unwrap_or_default(),
+            vertex_line: programmed.first().map(|s| s.1).unwrap_or(0),
+            accuracy_mm: accuracy,
+        };
+        // One side empty: nothing of the other is near it (both empty: nothing to miss).
+        if out_prims.is_empty() || self.bvh.prims.is_empty() {
+            if !self.bvh.prims.is_empty() {
+                dev.vertex_to_output_mm = f64::INFINITY;
+            }
+            if !out_prims.is_empty() {
+                dev.output_to_programmed_mm = f64::INFINITY;
+            }
+            return (dev, 0);
+        }
+
+        // (a) output points to the programmed path.
+        let (best, best_at, best_src, queries) =
+            output_to_programmed(&out_prims, &self.bvh, accuracy * 0.5, dev.output_at);
+        dev.output_to_programmed_mm = best;
+        dev.output_at = best_at;
+        dev.output_line = output[best_src as usize].1;
+
+        // (b) programmed vertices to the output, whose primitives the index now takes over.
+        // A few vertices are scanned against every output primitive: a tree would cost
+        // more to build than it saves.
+        let out_bvh = if programmed.len() < FEW_VERTICES {
+            Bvh::linear(out_prims)
+        } else {
+            Bvh::new(out_prims)
+        };
+        if let Some((d, p, line)) = vertices_to_output(&out_bvh, programmed, vertex_distances) {
+            (dev.vertex_to_output_mm, dev.vertex_at, dev.vertex_line) = (d, p, line);
+        }
+        (dev, queries)
+    }
+}
+
+/// Programmed vertices per task of (b), the tasks measured in parallel (each distance is
+/// exact up to the primitives, so the result does not depend on the cut).
+const VERTEX_TASK: usize = 4096;
+
+/// Side (b): the largest distance from a programmed vertex (the start, then the end of
+/// every segment, tagged with its line) to the primitives of `out`, the vertex and its
+/// line (the earliest of equals; `None` when no distance is above 0), the distance of
+/// every vertex pushed to `distances` in order when asked for.
+fn vertices_to_output(
     out: &Bvh,
     programmed: &[(&Segment, u32)],
-    mut f: impl FnMut(Vec3, u32, f64),
-) {
-    let mut q = Query::new(out);
-    if let Some((first, line)) = programmed.first() {
-        let p = first.start();
-        f(p, *line, q.dist(p));
+    distances: Option<&mut Vec<f64>>,
+) -> Option<(f64, Vec3, u32)> {
+    let n = programmed.len() + usize::from(!programmed.is_empty());
+    let vertex = |i: usize| match i {
+        0 => (programmed[0].0.start(), programmed[0].1),
+        _ => (programmed[i - 1].0.end(), programmed[i - 1].1),
+    };
+    let keep = distances.is_some();
+    let tasks = crate::par::map(n.div_ceil(VERTEX_TASK), 2, |k| {
+        let mut q = Query::new(out);
+        let mut best: Option<(f64, Vec3, u32)> = None;
+        let mut ds = Vec::new();
+        for i in k * VERTEX_TASK..((k + 1) * VERTEX_TASK).min(n) {
+            let (p, line) = vertex(i);
+            let floor = best.map_or(0.0, |b| b.0);
+            let d = if keep {
+                q.look_ahead(p);
+                let d = q.dist(p);
+                ds.push(d);
+                Some(d).filter(|&d| d > floor)
+            } else {
+                q.dist_above(p, floor)
+            };
+            if let Some(d) = d {
+                best = Some((d, p, line));
+            }
+        }
+        (best, ds)
+    });
+    let mut best: Option<(f64, Vec3, u32)> = None;
+    let mut distances = distances;
+    for (b, ds) in tasks {
+        if let Some(v) = distances.as_deref_mut() {
+            v.extend(ds);
+        }
+        if let Some(b) = b.filter(|b| b.0 > best.map_or(0.0, |x| x.0)) {
+            best = Some(b);
+        }
     }
-    for (s, line) in programmed {
-        let p = s.end();
-        f(p, *line, q.dist(p));
-    }
+    best
 }
 
 /// [`deviation`], and the distance (mm) from every programmed vertex (the start, then the
@@ -166,82 +318,8 @@ pub fn deviation_with_vertex_distances(
     let out: Vec<(&Segment, u32)> = output.moves().map(|m| (&m.segment, m.line)).collect();
     let prog: Vec<(&Segment, u32)> = programmed.moves().map(|m| (&m.segment, m.line)).collect();
     let mut distances = Vec::new();
-    let (dev, _) = measure(&out, &prog, accuracy, Some(&mut distances));
+    let (dev, _) = ProgramIndex::of_segments(prog, accuracy).measure(&out, Some(&mut distances));
     (dev, distances)
-}
-
-/// [`deviation_segments`], and the number of nearest-distance queries (a) made (the work
-/// of the branch and bound, for the tests).
-fn measure(
-    output: &[(&Segment, u32)],
-    programmed: &[(&Segment, u32)],
-    accuracy: f64,
-    mut vertex_distances: Option<&mut Vec<f64>>,
-) -> (Deviation, usize) {
-    let accuracy = if accuracy > 0.0 && accuracy.is_finite() {
-        accuracy
-    } else {
-        1e-6
-    };
-    let flat = accuracy * 0.25;
-    let slack = accuracy * 0.5;
-    let mut prog_prims = Vec::with_capacity(programmed.len());
-    for (i, (s, _)) in programmed.iter().enumerate() {
-        push_prims(s, i as u32, flat, &mut prog_prims);
-    }
-    let mut out_prims = Vec::with_capacity(output.len());
-    for (i, (s, _)) in output.iter().enumerate() {
-        push_prims(s, i as u32, flat, &mut out_prims);
-    }
-    let mut dev = Deviation {
-        output_to_programmed_mm: 0.0,
-        output_at: output.first().map(|s| s.0.start()).unwrap_or_default(),
-        output_line: output.first().map(|s| s.1).unwrap_or(0),
-        vertex_to_output_mm: 0.0,
-        vertex_at: programmed.first().map(|s| s.0.start()).unwrap_or_default(),
-        vertex_line: programmed.first().map(|s| s.1).unwrap_or(0),
-        accuracy_mm: accuracy,
-    };
-    // One side empty: nothing of the other is near it (both empty: nothing to miss).
-    if out_prims.is_empty() || prog_prims.is_empty() {
-        if !prog_prims.is_empty() {
-            dev.vertex_to_output_mm = f64::INFINITY;
-        }
-        if !out_prims.is_empty() {
-            dev.output_to_programmed_mm = f64::INFINITY;
-        }
-        return (dev, 0);
-    }
-
-    // (a) output points to the programmed path.
-    let prog_bvh = Bvh::new(prog_prims);
-    let (best, best_at, best_src, queries) =
-        output_to_programmed(&out_prims, &prog_bvh, slack, dev.output_at);
-    drop(prog_bvh);
-    dev.output_to_programmed_mm = best;
-    dev.output_at = best_at;
-    dev.output_line = output[best_src as usize].1;
-
-    // (b) programmed vertices to the output, whose primitives the index now takes over
-    // (held once: the output of a smoothing method is tens of millions of them). A few
-    // vertices are scanned against every output primitive: a tree would cost more to
-    // build than it saves.
-    let out_bvh = if programmed.len() < FEW_VERTICES {
-        Bvh::linear(out_prims)
-    } else {
-        Bvh::new(out_prims)
-    };
-    for_each_vertex_distance(&out_bvh, programmed, |p, line, d| {
-        if let Some(v) = vertex_distances.as_deref_mut() {
-            v.push(d);
-        }
-        if d > dev.vertex_to_output_mm {
-            dev.vertex_to_output_mm = d;
-            dev.vertex_at = p;
-            dev.vertex_line = line;
-        }
-    });
-    (dev, queries)
 }
 
 /// Side (a) by branch and bound (see the module doc): the largest distance from the
@@ -292,8 +370,7 @@ fn middles_to_programmed(out_prims: &[Prim], prog: &Bvh) -> (f64, Vec3, u32, usi
     let mut best = (0.0, Vec3::default(), 0, 0);
     for prim in out_prims {
         let p = prim.eval(0.5);
-        let d = q.dist(p);
-        if d > best.0 {
+        if let Some(d) = q.dist_above(p, best.0) {
             best = (d, p, prim.source, 0);
         }
     }
@@ -546,7 +623,45 @@ impl<'a> Query<'a> {
     fn dist(&mut self, p: Vec3) -> f64 {
         self.dist_hit(p).0
     }
+    /// The hint replaced by the nearest to `p` of it and a primitive of each of the
+    /// [`AHEAD_SOURCES`] sources after its own: points taken in path order meet them
+    /// next, and a near hint bounds the query tightly. Only where the primitive found
+    /// does not matter (of equally near ones, which is found depends on the hint).
+    fn look_ahead(&mut self, p: Vec3) {
+        let prims = &self.bvh.prims;
+        let Some(hint) = prims.get(self.hint) else {
+            return;
+        };
+        let mut best = (hint.dist_sq(p), self.hint);
+        for k in 1..=AHEAD_SOURCES {
+            if let Some(i) = self.bvh.of_source(hint.source.saturating_add(k)) {
+                let d = prims[i].dist_sq(p);
+                if d < best.0 {
+                    best = (d, i);
+                }
+            }
+        }
+        self.hint = best.1;
+    }
+    /// The distance from `p` when it is above `floor`, else `None`: a point with a
+    /// primitive within the floor (a little inside it, so that `None` never hides a
+    /// distance that rounds above it) is answered by a search that stops at the first.
+    fn dist_above(&mut self, p: Vec3, floor: f64) -> Option<f64> {
+        self.look_ahead(p);
+        let within_sq = floor * floor * (1.0 - FLOOR_SQ_MARGIN);
+        if self.bvh.any_within(p, within_sq, self.hint) {
+            return None;
+        }
+        Some(self.dist(p)).filter(|&d| d > floor)
+    }
 }
+
+/// Sources after the hint's that [`Query::look_ahead`] tries.
+const AHEAD_SOURCES: u32 = 4;
+
+/// Relative margin under the square of a floor inside which [`Query::dist_above`] takes
+/// a point as within it: far above the rounding of a square and its root.
+const FLOOR_SQ_MARGIN: f64 = 1e-12;
 
 #[cfg(test)]
 mod tests {
@@ -771,7 +886,7 @@ mod tests {
                 a => a.clone(),
             })
             .collect();
-        let (d, queries) = measure(&tag(&arcs), &tag(&prog), acc, None);
+        let (d, queries) = ProgramIndex::of_segments(tag(&prog), acc).measure(&tag(&arcs), None);
         let brute = brute_output_to_programmed(&arcs, &prog, 2000);
         assert!(brute > 5e-5 && brute < 1e-3, "{brute}");
         assert!(
@@ -788,7 +903,7 @@ mod tests {
             arcs.len()
         );
         // The chords of the first spiral are bounded in closed form too.
-        let (_, queries) = measure(&tag(&out), &tag(&prog), acc, None);
+        let (_, queries) = ProgramIndex::of_segments(tag(&prog), acc).measure(&tag(&out), None);
         assert!(
             queries < 100 * out.len(),
             "{queries} queries for {} pieces",

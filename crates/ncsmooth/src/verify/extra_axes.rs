@@ -345,7 +345,7 @@ pub fn extrusion_along_path(
 }
 
 /// Smallest cell of the pieces' grid (mm): a finer grid lists long moves in too many cells.
-const ALONG_MIN_CELL_MM: f64 = 0.5;
+const ALONG_MIN_CELL_MM: f64 = 1.5;
 
 #[cfg(test)]
 mod tests {

@@ -22,7 +22,9 @@ pub use continuity::{
     continuity, continuity_joints, joint, Continuity, Joint, JointClass, CURVATURE_ABS_TOL,
     CURVATURE_REL_TOL, DEGENERATE_MM, GAP_TOL_MM, TANGENT_TOL_DEG,
 };
-pub use deviation::{deviation, deviation_segments, deviation_with_vertex_distances, Deviation};
+pub use deviation::{
+    deviation, deviation_segments, deviation_with_vertex_distances, Deviation, ProgramIndex,
+};
 pub use extra_axes::{
     extra_axes_kept, extrusion_along_path, ExtraAxesMismatch, ExtrusionAlongPath,
 };
