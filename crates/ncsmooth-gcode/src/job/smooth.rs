@@ -4,16 +4,19 @@
 use super::policy::*;
 use super::report::{BlendReport, BlockReport, SmoothRunReport, Timings};
 use super::{EmitStyle, JobError, SmoothJob, SmoothedGcode};
-use crate::budget::{read_back_with, read_written_with, Budget};
+use crate::budget::{read_written_with, Budget};
 use crate::controller::linuxcnc::budget::*;
 use crate::controller::linuxcnc::executed::Executed;
 use crate::controller::linuxcnc::{Blend, CornerBlend};
 use crate::write::rewrite::{BlockFloor, Emit};
-use crate::{ArcChords, Program, RewriteOptions};
+use crate::{ArcChords, Dialect, Program, RewriteOptions};
 use ncsmooth::smooth::band_fit::BandFitOptions;
 use ncsmooth::smooth::trig_corner::{check_loops, without_loops, CornerStyle, LoopCheck};
 use ncsmooth::smooth::{smooth, Method, SmoothOptions, Smoothed as Curves};
-use ncsmooth::verify::{continuity, Continuity, Deviation};
+use ncsmooth::verify::{
+    continuity, BlockValueMismatch, Continuity, Deviation, ExtraAxesMismatch, ExtrusionAlongPath,
+    ProgramIndex,
+};
 use ncsmooth::Toolpath;
 use std::time::Instant;
 
@@ -23,6 +26,14 @@ struct CachedCurves {
     curves: Curves,
     /// Time their smoothing took (s).
     smooth_s: f64,
+}
+
+/// What the builds of one program share: the curves of the last (for a build with the
+/// same curve options) and the programmed path's index for the read-back check.
+#[derive(Default)]
+struct Builds<'p> {
+    curves: Option<CachedCurves>,
+    index: Option<ProgramIndex<'p>>,
 }
 
 impl CachedCurves {
@@ -62,8 +73,8 @@ impl SmoothJob {
         // the program is built as it was before the model, each part paid in full.
         let compress = self.compresses();
         // Builds whose curve options are the same (the first two differ in the writing
-        // only) share one smoothing.
-        let mut cache: Option<CachedCurves> = None;
+        // only) share one smoothing; all share the program's index.
+        let mut builds = Builds::default();
         let modelled = self.dialect.blends()
             && matches!(self.emit, None | Some(EmitStyle::Lines))
             && !compress
@@ -76,7 +87,7 @@ impl SmoothJob {
             for (k, even_out) in evened.take(EXECUTED_BUILDS + 1).enumerate() {
                 let rule = BudgetRule::Executed { less_mm, even_out };
                 // A build the budget leaves no room for falls back to paying each part.
-                let Ok(out) = self.run_with(name, src, program, rule, &mut cache) else {
+                let Ok(out) = self.run_with(name, src, program, rule, &mut builds) else {
                     break;
                 };
                 if out.report.within_tol {
@@ -101,9 +112,9 @@ impl SmoothJob {
                 g64_p_mm: self.g64_p_mm.or(Some(tol * SUM_BLEND_SHARE)),
                 ..self.clone()
             };
-            return job.run_with(name, src, program, BudgetRule::Sum, &mut cache);
+            return job.run_with(name, src, program, BudgetRule::Sum, &mut builds);
         }
-        self.run_with(name, src, program, BudgetRule::Sum, &mut cache)
+        self.run_with(name, src, program, BudgetRule::Sum, &mut builds)
     }
 
     /// `Method::None` with an emitter re-writes the program's own lines within the chord:
@@ -112,19 +123,27 @@ impl SmoothJob {
         self.smooth.method == Method::None && self.emit.is_some()
     }
 
-    fn run_with(
+    fn run_with<'p>(
         &self,
         name: &str,
         src: &[u8],
-        program: &Program,
+        program: &'p Program,
         rule: BudgetRule,
-        cache: &mut Option<CachedCurves>,
+        builds: &mut Builds<'p>,
     ) -> Result<SmoothedGcode, JobError> {
         let shares = Shares::of(self, program, rule)?;
         let (opts, loop_size) = self.curve_options(&shares)?;
         let mut t = Timings::default();
+        let Builds {
+            curves: cache,
+            index,
+        } = builds;
         if cache.as_ref().is_some_and(|c| c.opts != opts) {
             *cache = None;
+        }
+        let accuracy = shares.tol * VERIFY_ACCURACY_SHARE;
+        if index.as_ref().is_some_and(|i| i.accuracy_mm() != accuracy) {
+            *index = None;
         }
         let cached = match cache {
             Some(c) => &*c,
@@ -143,18 +162,26 @@ impl SmoothJob {
             crate::write::rewrite::rewrite(src, program, tp, &wopts)
                 .map_err(|e| JobError::Write(e.to_string()))
         };
-        let gcode = write(&curves.toolpath)?;
+        // The program's index is built while the output is written.
+        let unindexed = index.is_none();
+        let (built, gcode) = ncsmooth::par::join(
+            || unindexed.then(|| ProgramIndex::new(&program.toolpath, accuracy)),
+            || write(&curves.toolpath),
+        );
+        let gcode = gcode?;
+        let index = &*match built {
+            Some(built) => index.insert(built),
+            None => index.get_or_insert_with(|| ProgramIndex::new(&program.toolpath, accuracy)),
+        };
         t.write_s = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let looped = match loop_size {
             Some(size) => Some((size, write(&without_loops(&curves.toolpath))?)),
             None => None,
         };
-        let checked = self.check(name, program, curves, &gcode, &shares, looped)?;
+        let checked = self.check(name, src, program, index, curves, &gcode, &shares, looped)?;
         t.verify_s = t0.elapsed().as_secs_f64();
-        let report = self.report(
-            name, src, program, curves, &gcode, &shares, emit, checked, t,
-        );
+        let report = self.report(name, program, curves, &shares, emit, checked, t);
         let loop_size_mm = match self.smooth.trig.corner {
             CornerStyle::Loop { loop_size_mm } if self.smooth.method == Method::Trig => {
                 Some(loop_size_mm)
@@ -343,14 +370,44 @@ impl Shares {
 
 /// What the read-back measured.
 struct Checked {
-    as_written: Toolpath,
     dev: Deviation,
     loops: Option<LoopCheck>,
     /// The loops are within the size they were built to (true without loops).
     loops_ok: bool,
     executed: Option<Executed>,
+    kept: Kept,
+}
+
+/// What the written program keeps of the input (measured beside the deviation).
+struct Kept {
+    blocks: BlockReport,
+    extra_axes_mismatch: Option<ExtraAxesMismatch>,
+    block_values_mismatch: Option<BlockValueMismatch>,
+    extrusion_along_path: Option<ExtrusionAlongPath>,
     continuity: Continuity,
     input_continuity: Continuity,
+}
+
+impl Kept {
+    fn of(
+        src: &[u8],
+        program: &Program,
+        curves: &Curves,
+        gcode: &[u8],
+        as_written: &Toolpath,
+        s: &Shares,
+        dialect: Dialect,
+    ) -> Kept {
+        let tp = &program.toolpath;
+        Kept {
+            blocks: BlockReport::of(src, tp, gcode, as_written, dialect),
+            extra_axes_mismatch: ncsmooth::verify::extra_axes_kept(tp, as_written, s.rounding),
+            block_values_mismatch: ncsmooth::verify::block_values_kept(tp, as_written, s.rounding),
+            extrusion_along_path: ncsmooth::verify::extrusion_along_path(tp, as_written, s.tol),
+            continuity: continuity(&curves.toolpath),
+            input_continuity: continuity(tp),
+        }
+    }
 }
 
 impl SmoothJob {
@@ -440,35 +497,39 @@ impl SmoothJob {
     /// reconstruction are part of what the machine will run. In loop mode (`looped`: the
     /// loop size and the same text written without the loops) the loops are measured by
     /// their own bound, and the two-sided tolerance on the text without them.
+    #[allow(clippy::too_many_arguments)]
     fn check(
         &self,
         name: &str,
+        src: &[u8],
         program: &Program,
+        index: &ProgramIndex,
         curves: &Curves,
         gcode: &[u8],
         s: &Shares,
         looped: Option<(f64, Vec<u8>)>,
     ) -> Result<Checked, JobError> {
         let unreadable = |e: crate::ParseError| JobError::ReadBack(e.to_string());
-        let (opts, accuracy) = (&self.read, s.tol * VERIFY_ACCURACY_SHARE);
+        let opts = &self.read;
         let loops = looped
             .as_ref()
             .map(|(size, _)| check_loops(&curves.toolpath, &program.toolpath, *size));
-        let (as_written, dev) = match &looped {
-            Some((_, text)) => {
-                let (_, dev) = read_back_with(text, name, &program.toolpath, accuracy, opts)
-                    .map_err(unreadable)?;
-                (
-                    read_written_with(gcode, name, opts).map_err(unreadable)?,
-                    dev,
-                )
-            }
-            None => read_back_with(gcode, name, &program.toolpath, accuracy, opts)
-                .map_err(unreadable)?,
+        // Read once: the path for the checks, the program for LinuxCNC's executed path.
+        let written = crate::parse_bytes(gcode, name, opts).map_err(unreadable)?;
+        let as_written = &written.toolpath;
+        // In loop mode the deviation is measured on the text without the loops.
+        let without_loops = match &looped {
+            Some((_, text)) => Some(read_written_with(text, name, opts).map_err(unreadable)?),
+            None => None,
         };
+        let measured = without_loops.as_ref().unwrap_or(as_written);
+        // The deviation beside the checks of what the output keeps.
+        let (dev, kept) = ncsmooth::par::join(
+            || index.deviation(measured),
+            || Kept::of(src, program, curves, gcode, as_written, s, self.dialect),
+        );
         let executed = match (s.blend, looped.is_some()) {
             (Some(b), false) => {
-                let written = crate::parse_bytes(gcode, name, opts).map_err(unreadable)?;
                 let cap = s.verbatim_blend.map_or(b.p_mm, |v| v.p_mm.max(b.p_mm));
                 Some(crate::controller::linuxcnc::executed::linuxcnc_executed(
                     &written,
@@ -486,13 +547,11 @@ impl SmoothJob {
             _ => true,
         };
         Ok(Checked {
-            as_written,
             dev,
             loops,
             loops_ok,
             executed,
-            continuity: continuity(&curves.toolpath),
-            input_continuity: continuity(&program.toolpath),
+            kept,
         })
     }
 
@@ -500,31 +559,28 @@ impl SmoothJob {
     fn report(
         &self,
         name: &str,
-        src: &[u8],
         program: &Program,
         curves: &Curves,
-        gcode: &[u8],
         s: &Shares,
         emit: EmitStyle,
         c: Checked,
         timings: Timings,
     ) -> SmoothRunReport {
         let Checked {
-            as_written,
             dev,
             loops,
             loops_ok,
             executed,
+            kept,
+        } = c;
+        let Kept {
+            blocks,
+            extra_axes_mismatch,
+            block_values_mismatch,
+            extrusion_along_path,
             continuity,
             input_continuity,
-        } = c;
-        let blocks = BlockReport::of(src, &program.toolpath, gcode, &as_written, self.dialect);
-        let extra_axes_mismatch =
-            ncsmooth::verify::extra_axes_kept(&program.toolpath, &as_written, s.rounding);
-        let block_values_mismatch =
-            ncsmooth::verify::block_values_kept(&program.toolpath, &as_written, s.rounding);
-        let extrusion_along_path =
-            ncsmooth::verify::extrusion_along_path(&program.toolpath, &as_written, s.tol);
+        } = kept;
         let within_tol = loops_ok
             && match executed {
                 // The model of what LinuxCNC runs, where it applies, whichever the budget.
