@@ -400,6 +400,9 @@ fn arc_fits(
     if tol <= sag {
         return false;
     }
+    if !radially_within(&dense[from + 1..to], c, r - sag - tol, r + tol) {
+        return false;
+    }
     let arc = ArcXy {
         c,
         r,
@@ -435,6 +438,20 @@ fn arc_fits(
         (t0, a, miss_a) = (t1, p, miss_b);
     }
     true
+}
+
+/// Whether every point of `pts` lies at an XY distance from `c` between `lo` and `hi`
+/// (up to a relative 1e-9): a dense point within the tolerance of an arc run as chords
+/// inside it does, so an end that fails this fails [`arc_fits`], at a square root a
+/// point instead of the sampled check of every piece.
+fn radially_within(pts: &[Vec3], c: Vec3, lo: f64, hi: f64) -> bool {
+    let margin = 1.0 + 1e-9;
+    let hi_sq = (hi * margin).powi(2);
+    let lo_sq = if lo > 0.0 { (lo / margin).powi(2) } else { 0.0 };
+    pts.iter().all(|p| {
+        let d_sq = (p.x - c.x).powi(2) + (p.y - c.y).powi(2);
+        d_sq <= hi_sq && d_sq >= lo_sq
+    })
 }
 
 /// The centre (Z of `pa`) of the circle through `pa` and `pe` that bulges from their chord
