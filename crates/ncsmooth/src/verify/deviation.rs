@@ -36,8 +36,11 @@
 //! queries for paths that follow each other, each query O(log n) with the sequential hint;
 //! (a) runs in tasks of a fixed number of output primitives on [`crate::par`]'s threads,
 //! each pruning against a floor measured first (the distance at every primitive's
-//! middle); a point whose distance to the primitive nearest its neighbours' is within
-//! the best value so far needs no query (an upper bound serves the bounds as well).
+//! middle); a point whose distance to the primitive nearest its neighbours', or to one
+//! of the next few sources after it, is within the best value so far needs no query (an
+//! upper bound serves the bounds as well), and where only the largest distance counts
+//! (the floors; (b) without the per-vertex figures) a point is tested for a primitive
+//! within the best so far by a search that stops at the first.
 //! (b) runs in tasks of a fixed number of vertices. The programmed side is indexed once
 //! ([`ProgramIndex`]) for any number of outputs. Memory: each side's primitives once (64
 //! bytes a line), the output's becoming the index of side (b) after side (a).
@@ -602,9 +605,10 @@ impl<'a> Query<'a> {
     }
     /// The distance from `p` to the programmed path where it may exceed `floor`, else an
     /// upper bound of it not above `floor`; with the primitive it is measured to. The
-    /// nearer of `a`, `b` and the hint is tried first: when it is within `floor` the
-    /// point cannot raise a maximum that is at least `floor`, and no query is made (an
-    /// upper bound serves the branch and bound as well as the distance).
+    /// nearer of `a`, `b` and the hint is tried first, then a primitive of each of the
+    /// [`AHEAD_SOURCES`] sources after its own: when one is within `floor` the point
+    /// cannot raise a maximum that is at least `floor`, and no query is made (an upper
+    /// bound serves the branch and bound as well as the distance).
     fn dist_or_below(&mut self, p: Vec3, a: usize, b: usize, floor: f64) -> (f64, usize) {
         let prims = &self.bvh.prims;
         let (mut best, mut at) = (prims[self.hint].dist_sq(p), self.hint);
@@ -612,6 +616,18 @@ impl<'a> Query<'a> {
             let d = prims[h].dist_sq(p);
             if d < best {
                 (best, at) = (d, h);
+            }
+        }
+        if best <= floor * floor {
+            return (best.sqrt(), at);
+        }
+        let s = prims[at].source;
+        for k in 1..=AHEAD_SOURCES {
+            if let Some(i) = self.bvh.of_source(s.saturating_add(k)) {
+                let d = prims[i].dist_sq(p);
+                if d < best {
+                    (best, at) = (d, i);
+                }
             }
         }
         if best <= floor * floor {
