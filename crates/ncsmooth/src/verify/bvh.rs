@@ -8,6 +8,7 @@
 
 use super::prim::Prim;
 use crate::geom::{Aabb, Vec3};
+use std::ops::Range;
 
 /// Primitives per leaf.
 const LEAF_SIZE: usize = 4;
@@ -100,23 +101,57 @@ impl Bvh {
             }
             return best;
         }
+        self.descend(p, bound_sq, |leaf| {
+            for i in leaf {
+                let d = self.prims[i].dist_sq(p);
+                if d < best.dist_sq {
+                    best = Hit {
+                        dist_sq: d,
+                        prim: i,
+                    };
+                }
+            }
+            Some(best.dist_sq)
+        });
+        best
+    }
+
+    /// Whether some primitive lies within `sqrt(r_sq)` of `p` (distance at most that),
+    /// `hint` tried first: a search that stops at the first one, and prunes every box
+    /// farther than the radius (for a point that cannot raise a maximum already found).
+    pub fn any_within(&self, p: Vec3, r_sq: f64, hint: usize) -> bool {
+        if self.prims.get(hint).is_some_and(|h| h.dist_sq(p) <= r_sq) {
+            return true;
+        }
+        if self.nodes.is_empty() {
+            return self.prims.iter().any(|x| x.dist_sq(p) <= r_sq);
+        }
+        let near = |leaf: Range<usize>| self.prims[leaf].iter().any(|x| x.dist_sq(p) <= r_sq);
+        !self.descend(p, r_sq, |leaf| (!near(leaf)).then_some(r_sq))
+    }
+
+    /// Visits depth-first, the nearer child first, every leaf whose box lies within
+    /// `sqrt(bound_sq)` of `p`: `leaf` gets the leaf's range of `prims` and returns the
+    /// bound from there on (a nearest search lowers it), or `None` to stop the search.
+    /// `false` when stopped.
+    fn descend(
+        &self,
+        p: Vec3,
+        mut bound_sq: f64,
+        mut leaf: impl FnMut(Range<usize>) -> Option<f64>,
+    ) -> bool {
         let mut stack = [0u32; STACK_DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
             let n = &self.nodes[stack[top] as usize];
-            if n.bbox.dist_sq(p) >= best.dist_sq {
+            if n.bbox.dist_sq(p) > bound_sq {
                 continue;
             }
             if n.leaf {
-                for i in n.start as usize..n.end as usize {
-                    let d = self.prims[i].dist_sq(p);
-                    if d < best.dist_sq {
-                        best = Hit {
-                            dist_sq: d,
-                            prim: i,
-                        };
-                    }
+                match leaf(n.start as usize..n.end as usize) {
+                    Some(b) => bound_sq = b,
+                    None => return false,
                 }
             } else {
                 let (l, r) = (n.start, n.end);
@@ -129,45 +164,7 @@ impl Bvh {
                 top += 2;
             }
         }
-        best
-    }
-}
-
-impl Bvh {
-    /// Whether some primitive lies within `sqrt(r_sq)` of `p` (distance at most that),
-    /// `hint` tried first: a search that stops at the first one, and prunes every box
-    /// farther than the radius (for a point that cannot raise a maximum already found).
-    pub fn any_within(&self, p: Vec3, r_sq: f64, hint: usize) -> bool {
-        if self.prims.get(hint).is_some_and(|h| h.dist_sq(p) <= r_sq) {
-            return true;
-        }
-        if self.nodes.is_empty() {
-            return self.prims.iter().any(|x| x.dist_sq(p) <= r_sq);
-        }
-        let mut stack = [0u32; STACK_DEPTH];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let n = &self.nodes[stack[top] as usize];
-            if n.bbox.dist_sq(p) > r_sq {
-                continue;
-            }
-            if n.leaf {
-                let prims = &self.prims[n.start as usize..n.end as usize];
-                if prims.iter().any(|x| x.dist_sq(p) <= r_sq) {
-                    return true;
-                }
-            } else {
-                let (l, r) = (n.start, n.end);
-                let dl = self.nodes[l as usize].bbox.dist_sq(p);
-                let dr = self.nodes[r as usize].bbox.dist_sq(p);
-                let (first, second) = if dl < dr { (r, l) } else { (l, r) };
-                stack[top] = first;
-                stack[top + 1] = second;
-                top += 2;
-            }
-        }
-        false
+        true
     }
 }
 
