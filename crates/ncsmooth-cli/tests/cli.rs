@@ -1386,8 +1386,13 @@ fn smooth_counts_the_firmware_arc_setting() {
     assert!(arcs > 0 && sag <= 0.05, "{arcs} arcs, sagitta {sag}");
     // A coarser resolution: 3 mm chords sag 0.11 mm on this radius, so no arc written
     // may be cut that coarsely.
-    let coarse = smooth(&["--arc-segment", "3"]);
+    let rep = d.join("coarse.json");
+    let coarse = smooth(&["--arc-segment", "3", "--report", rep.to_str().unwrap()]);
     let (sag, coarse_arcs) = klipper_arc_sagitta(&coarse, 3.0);
+    // The report names the chords counted.
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(r["arc_chords"]["kind"], "floor");
+    assert_eq!(r["arc_chords"]["resolution_mm"], 3.0);
     assert!(sag <= 0.05, "{coarse_arcs} arcs, sagitta {sag} at 3 mm");
     assert!(coarse_arcs < arcs, "{coarse_arcs} vs {arcs}");
     // A dialect running circles has no such setting; a setting must be a length.

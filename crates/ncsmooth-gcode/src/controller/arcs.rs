@@ -26,7 +26,8 @@
 use std::f64::consts::TAU;
 
 /// A controller's way of running an arc.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum ArcChords {
     /// The controller runs the circle itself.

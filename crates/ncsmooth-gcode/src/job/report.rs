@@ -46,6 +46,9 @@ pub struct SmoothRunReport {
     pub dialect: &'static str,
     /// Emitter.
     pub emit: EmitStyle,
+    /// How the controller runs the arcs written, as counted in the tolerance: `exact`,
+    /// or the chords it cuts them into (the dialect's default or `--arc-segment`).
+    pub arc_chords: crate::ArcChords,
     /// LinuxCNC: the `G64 P Q` written before each smoothed run (mm); the controller's
     /// blending adds at most `p + q` to the measured deviation, and the sum stays within
     /// the tolerance.

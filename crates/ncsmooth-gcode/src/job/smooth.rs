@@ -599,6 +599,7 @@ impl SmoothJob {
             rounding_mm: s.rounding,
             dialect: self.dialect.name(),
             emit,
+            arc_chords: s.arc_chords,
             blend: s.blend.map(|b| blend_report(b, s, &dev, executed.as_ref())),
             blocks,
             smoothing: curves.report.clone(),
