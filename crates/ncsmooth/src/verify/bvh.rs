@@ -1,7 +1,5 @@
 //! A static bounding-volume hierarchy over primitives for nearest-distance queries.
-//! Built top-down on the longest axis of the centroids, each node cut where the surface
-//! area heuristic over 16 bins of them is least (O(n log n); a path's long lines among
-//! short ones get boxes of their own instead of widening their neighbours'); queried
+//! Built by median splits on the longest axis of the centroids (O(n log n)); queried
 //! depth-first, nearer child first, pruning boxes farther than the best distance so far.
 //! An initial upper bound (a "hint", e.g. the distance to the primitive nearest the
 //! previous query point) makes sequential queries along a path nearly O(log n).
@@ -12,18 +10,15 @@ use std::ops::Range;
 
 /// Primitives per leaf.
 const LEAF_SIZE: usize = 4;
-/// Bins of the centroids a node's split is chosen among (see [`binned_split`]).
-const SPLIT_BINS: usize = 16;
 /// Up to this many primitives a query scans them all: no boxes to compute, no tree to
 /// build (the blend and run measurements of the smoothing methods compare a curve with
 /// one or two programmed pieces, thousands of times).
 const LINEAR_MAX_PRIMS: usize = 8;
 /// Depth of the query stack: a depth-first query holds at most one pending node per
-/// level plus the two children of the node it expands, and splits that keep at least a
-/// quarter of a node's primitives on each side keep the depth at most
-/// `ln(n / LEAF_SIZE) / ln(4 / 3) + 1`, 74 for the most primitives an index can hold
-/// (`u32`). A fixed stack keeps queries free of allocation.
-const STACK_DEPTH: usize = 80;
+/// level plus the two children of the node it expands, and median splits keep the depth
+/// at `log2(n / LEAF_SIZE) + 1`, so this is ample for any primitive count an index can
+/// hold (`u32`). A fixed stack keeps queries free of allocation.
+const STACK_DEPTH: usize = 72;
 
 struct Node {
     bbox: Aabb,
@@ -182,51 +177,6 @@ fn by_source(prims: &[Prim]) -> Vec<u32> {
     out
 }
 
-/// Half the surface area of a box (0 for an empty one): the surface area heuristic's
-/// measure of how likely a query is to enter it.
-fn half_area(b: Aabb) -> f64 {
-    let e = b.max - b.min;
-    (e.x * e.y + e.y * e.z + e.z * e.x).max(0.0)
-}
-
-/// How many of `items` (centroids in `cbox`) go to the left child: the cut between
-/// [`SPLIT_BINS`] equal bins of the centroids along `axis` that minimises the surface
-/// area heuristic (each side's box area times its count), the median when the centroids
-/// do not spread along the axis or every cut leaves a side empty; kept between a quarter
-/// and three quarters of the items, which bounds the depth (see [`STACK_DEPTH`]).
-fn binned_split(items: &[Prim], axis: usize, cbox: Aabb) -> usize {
-    let (lo, hi, n) = (cbox.min[axis], cbox.max[axis], items.len());
-    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-        return n / 2;
-    }
-    let mut bins = [(Aabb::EMPTY, 0usize); SPLIT_BINS];
-    let scale = SPLIT_BINS as f64 / (hi - lo);
-    for b in items.iter().map(Prim::bbox) {
-        let k = (((b.center()[axis] - lo) * scale) as usize).min(SPLIT_BINS - 1);
-        bins[k] = (bins[k].0.union(b), bins[k].1 + 1);
-    }
-    // Area and count of the bins from each cut to the right end.
-    let mut right = [(0.0f64, 0usize); SPLIT_BINS];
-    let mut acc = (Aabb::EMPTY, 0);
-    for k in (1..SPLIT_BINS).rev() {
-        acc = (acc.0.union(bins[k].0), acc.1 + bins[k].1);
-        right[k] = (half_area(acc.0), acc.1);
-    }
-    let mut acc = (Aabb::EMPTY, 0);
-    let mut best = (f64::INFINITY, n / 2);
-    for k in 1..SPLIT_BINS {
-        acc = (acc.0.union(bins[k - 1].0), acc.1 + bins[k - 1].1);
-        if acc.1 == 0 || acc.1 == n {
-            continue;
-        }
-        let cost = half_area(acc.0) * acc.1 as f64 + right[k].0 * right[k].1 as f64;
-        if cost < best.0 {
-            best = (cost, acc.1);
-        }
-    }
-    best.1.clamp(n / 4, n - n / 4)
-}
-
 fn build(items: &mut [Prim], offset: usize, nodes: &mut Vec<Node>) -> u32 {
     let mut bbox = Aabb::EMPTY;
     let mut cbox = Aabb::EMPTY;
@@ -258,10 +208,8 @@ fn build(items: &mut [Prim], offset: usize, nodes: &mut Vec<Node>) -> u32 {
     } else {
         2
     };
-    let mid = binned_split(items, axis, cbox);
-    items.select_nth_unstable_by(mid, |a, b| {
-        a.bbox().center()[axis].total_cmp(&b.bbox().center()[axis])
-    });
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| a.center_on(axis).total_cmp(&b.center_on(axis)));
     let (lo, hi) = items.split_at_mut(mid);
     let l = build(lo, offset, nodes);
     let r = build(hi, offset + mid, nodes);
@@ -313,9 +261,8 @@ mod tests {
         }
     }
 
-    /// The surface area heuristic would cut the farthest of exponentially spaced short
-    /// lines off the rest at every level; the quarter rule keeps the depth within the
-    /// stack's bound.
+    /// Exponentially spaced short lines: median splits keep the depth within the stack's
+    /// bound whatever the spread.
     #[test]
     fn depth_stays_within_the_stack() {
         let n = 3000;
@@ -329,7 +276,7 @@ mod tests {
             })
             .collect();
         let bvh = Bvh::new(ps);
-        let bound = ((n as f64 / LEAF_SIZE as f64).ln() / (4.0f64 / 3.0).ln()).ceil() as usize + 1;
+        let bound = (n as f64 / LEAF_SIZE as f64).log2().ceil() as usize + 1;
         let d = depth(&bvh, 0);
         assert!(
             d <= bound && bound + 2 <= STACK_DEPTH,

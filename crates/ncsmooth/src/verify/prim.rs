@@ -326,6 +326,17 @@ impl Prim {
             PrimGeom::Arc(a) => a.bbox,
         }
     }
+
+    /// `bbox().center()[axis]`, from that axis alone (the index's build compares it).
+    pub fn center_on(&self, axis: usize) -> f64 {
+        match &self.geom {
+            PrimGeom::Line(l) => {
+                let (a, b) = (l.p0[axis], l.p1[axis]);
+                (a.min(b) + a.max(b)) * 0.5
+            }
+            PrimGeom::Arc(a) => a.bbox.center()[axis],
+        }
+    }
 }
 
 /// Appends the primitives of `seg` to `out`. Lines and planar circular arcs are exact. A
