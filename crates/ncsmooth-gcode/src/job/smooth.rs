@@ -28,14 +28,6 @@ struct CachedCurves {
     smooth_s: f64,
 }
 
-/// What the builds of one program share: the curves of the last (for a build with the
-/// same curve options) and the programmed path's index for the read-back check.
-#[derive(Default)]
-struct Builds<'p> {
-    curves: Option<CachedCurves>,
-    index: Option<ProgramIndex<'p>>,
-}
-
 impl CachedCurves {
     fn of(tp: &Toolpath, opts: SmoothOptions) -> Result<CachedCurves, JobError> {
         let t0 = Instant::now();
@@ -73,8 +65,8 @@ impl SmoothJob {
         // the program is built as it was before the model, each part paid in full.
         let compress = self.compresses();
         // Builds whose curve options are the same (the first two differ in the writing
-        // only) share one smoothing; all share the program's index.
-        let mut builds = Builds::default();
+        // only) share one smoothing.
+        let mut cache: Option<CachedCurves> = None;
         let modelled = self.dialect.blends()
             && matches!(self.emit, None | Some(EmitStyle::Lines))
             && !compress
@@ -87,7 +79,7 @@ impl SmoothJob {
             for (k, even_out) in evened.take(EXECUTED_BUILDS + 1).enumerate() {
                 let rule = BudgetRule::Executed { less_mm, even_out };
                 // A build the budget leaves no room for falls back to paying each part.
-                let Ok(out) = self.run_with(name, src, program, rule, &mut builds) else {
+                let Ok(out) = self.run_with(name, src, program, rule, &mut cache) else {
                     break;
                 };
                 if out.report.within_tol {
@@ -112,9 +104,9 @@ impl SmoothJob {
                 g64_p_mm: self.g64_p_mm.or(Some(tol * SUM_BLEND_SHARE)),
                 ..self.clone()
             };
-            return job.run_with(name, src, program, BudgetRule::Sum, &mut builds);
+            return job.run_with(name, src, program, BudgetRule::Sum, &mut cache);
         }
-        self.run_with(name, src, program, BudgetRule::Sum, &mut builds)
+        self.run_with(name, src, program, BudgetRule::Sum, &mut cache)
     }
 
     /// `Method::None` with an emitter re-writes the program's own lines within the chord:
@@ -123,28 +115,21 @@ impl SmoothJob {
         self.smooth.method == Method::None && self.emit.is_some()
     }
 
-    fn run_with<'p>(
+    fn run_with(
         &self,
         name: &str,
         src: &[u8],
-        program: &'p Program,
+        program: &Program,
         rule: BudgetRule,
-        builds: &mut Builds<'p>,
+        cache: &mut Option<CachedCurves>,
     ) -> Result<SmoothedGcode, JobError> {
         let shares = Shares::of(self, program, rule)?;
         let (opts, loop_size) = self.curve_options(&shares)?;
         let mut t = Timings::default();
-        let Builds {
-            curves: cache,
-            index,
-        } = builds;
         if cache.as_ref().is_some_and(|c| c.opts != opts) {
             *cache = None;
         }
         let accuracy = shares.tol * VERIFY_ACCURACY_SHARE;
-        if index.as_ref().is_some_and(|i| i.accuracy_mm() != accuracy) {
-            *index = None;
-        }
         let cached = match cache {
             Some(c) => &*c,
             None => &*cache.insert(CachedCurves::of(&program.toolpath, opts)?),
@@ -162,17 +147,12 @@ impl SmoothJob {
             crate::write::rewrite::rewrite(src, program, tp, &wopts)
                 .map_err(|e| JobError::Write(e.to_string()))
         };
-        // The program's index is built while the output is written.
-        let unindexed = index.is_none();
-        let (built, gcode) = ncsmooth::par::join(
-            || unindexed.then(|| ProgramIndex::new(&program.toolpath, accuracy)),
+        // The program's index for the check is built while the output is written.
+        let (index, gcode) = ncsmooth::par::join(
+            || ProgramIndex::new(&program.toolpath, accuracy),
             || write(&curves.toolpath),
         );
         let gcode = gcode?;
-        let index = &*match built {
-            Some(built) => index.insert(built),
-            None => index.get_or_insert_with(|| ProgramIndex::new(&program.toolpath, accuracy)),
-        };
         t.write_s = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let looped = match loop_size {
@@ -503,7 +483,7 @@ impl SmoothJob {
         name: &str,
         src: &[u8],
         program: &Program,
-        index: &ProgramIndex,
+        index: ProgramIndex,
         curves: &Curves,
         gcode: &[u8],
         s: &Shares,
@@ -525,7 +505,7 @@ impl SmoothJob {
         let measured = without_loops.as_ref().unwrap_or(as_written);
         // The deviation beside the checks of what the output keeps.
         let (dev, kept) = ncsmooth::par::join(
-            || index.deviation(measured),
+            || index.into_deviation(measured),
             || Kept::of(src, program, curves, gcode, as_written, s, self.dialect),
         );
         let executed = match (s.blend, looped.is_some()) {

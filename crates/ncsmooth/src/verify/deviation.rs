@@ -43,7 +43,8 @@
 //! within the best so far by a search that stops at the first.
 //! (b) runs in tasks of a fixed number of vertices. The programmed side is indexed once
 //! ([`ProgramIndex`]) for any number of outputs. Memory: each side's primitives once (64
-//! bytes a line), the output's becoming the index of side (b) after side (a).
+//! bytes a line), the output's becoming the index of side (b) after side (a); [`deviation`]
+//! and [`ProgramIndex::into_deviation`] drop the programmed index before that.
 
 use super::bvh::{Bvh, Hit};
 use super::prim::{push_prims, Prim, PrimGeom};
@@ -102,7 +103,7 @@ impl Deviation {
 /// place (after a `G28`, a slicer's repeated `G1 Z0.2` with X and Y not yet established
 /// sits at the reader's placeholder for them), and a writer skips it.
 pub fn deviation(output: &Toolpath, programmed: &Toolpath, accuracy: f64) -> Deviation {
-    ProgramIndex::new(programmed, accuracy).deviation(output)
+    ProgramIndex::new(programmed, accuracy).into_deviation(output)
 }
 
 /// The moves of `tp` but its zero-length lines, with their source lines.
@@ -119,9 +120,8 @@ pub fn deviation_segments(
     programmed: &[(&Segment, u32)],
     accuracy: f64,
 ) -> Deviation {
-    ProgramIndex::of_segments(programmed.to_vec(), accuracy)
-        .measure(output, None)
-        .0
+    let a = ProgramIndex::of_segments(programmed.to_vec(), accuracy).side_a(output);
+    a.side_b(programmed, None).0
 }
 
 /// The programmed path indexed once for [`deviation`] against any number of outputs
@@ -192,6 +192,24 @@ impl<'a> ProgramIndex<'a> {
         output: &[(&Segment, u32)],
         vertex_distances: Option<&mut Vec<f64>>,
     ) -> (Deviation, usize) {
+        let a = self.side_a(output);
+        a.side_b(&self.programmed, vertex_distances)
+    }
+
+    /// [`ProgramIndex::deviation`], the index dropped once side (a) is measured: the
+    /// memory of one side's index at a time, for a single output.
+    pub fn into_deviation(self, output: &Toolpath) -> Deviation {
+        let a = self.side_a(&with_length(output));
+        let ProgramIndex {
+            programmed, bvh, ..
+        } = self;
+        drop(bvh);
+        a.side_b(&programmed, None).0
+    }
+
+    /// Side (a) of the deviation of `output` (nothing to measure when either side is
+    /// empty: the figures are then final).
+    fn side_a(&self, output: &[(&Segment, u32)]) -> SideA {
         let (programmed, accuracy) = (&self.programmed, self.accuracy);
         let mut out_prims = Vec::with_capacity(output.len());
         for (i, (s, _)) in output.iter().enumerate() {
@@ -214,19 +232,51 @@ impl<'a> ProgramIndex<'a> {
             if !out_prims.is_empty() {
                 dev.output_to_programmed_mm = f64::INFINITY;
             }
-            return (dev, 0);
+            return SideA {
+                dev,
+                out_prims: None,
+                queries: 0,
+            };
         }
-
-        // (a) output points to the programmed path.
         let (best, best_at, best_src, queries) =
             output_to_programmed(&out_prims, &self.bvh, accuracy * 0.5, dev.output_at);
         dev.output_to_programmed_mm = best;
         dev.output_at = best_at;
         dev.output_line = output[best_src as usize].1;
+        SideA {
+            dev,
+            out_prims: Some(out_prims),
+            queries,
+        }
+    }
+}
 
-        // (b) programmed vertices to the output, whose primitives the index now takes over.
-        // A few vertices are scanned against every output primitive: a tree would cost
-        // more to build than it saves.
+/// The deviation with side (a) measured: the output's primitives for side (b), `None`
+/// when the figures are final.
+struct SideA {
+    dev: Deviation,
+    out_prims: Option<Vec<Prim>>,
+    /// Nearest-distance queries side (a) made.
+    queries: usize,
+}
+
+impl SideA {
+    /// Side (b): the programmed vertices to the output, whose primitives become its
+    /// index. A few vertices are scanned against every output primitive: a tree would
+    /// cost more to build than it saves.
+    fn side_b(
+        self,
+        programmed: &[(&Segment, u32)],
+        vertex_distances: Option<&mut Vec<f64>>,
+    ) -> (Deviation, usize) {
+        let SideA {
+            mut dev,
+            out_prims,
+            queries,
+        } = self;
+        let Some(out_prims) = out_prims else {
+            return (dev, queries);
+        };
         let out_bvh = if programmed.len() < FEW_VERTICES {
             Bvh::linear(out_prims)
         } else {
@@ -238,7 +288,6 @@ impl<'a> ProgramIndex<'a> {
         (dev, queries)
     }
 }
-
 /// Programmed vertices per task of (b), the tasks measured in parallel (each distance is
 /// exact up to the primitives, so the result does not depend on the cut).
 const VERTEX_TASK: usize = 4096;
